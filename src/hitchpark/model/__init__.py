@@ -1,0 +1,50 @@
+"""Vehicle-trailer model: parameters, kinematics (Section 2), inverse kinematics (Section 3)."""
+
+from .integrate import rk4, step_full
+from .inverse import (
+    actual_virtual_steer,
+    front_steer_from_virtual,
+    rear_speed_from_trailer_speed,
+    trailer_speed_from_virtual,
+    vehicle_yaw_rate_from_virtual,
+    virtual_steer_bounds,
+    virtual_steer_from_front,
+)
+from .kinematics import (
+    FULL_INPUT,
+    FULL_STATE,
+    TRAILER_INPUT,
+    TRAILER_STATE,
+    full_rates,
+    full_rhs,
+    hitch_point,
+    rear_axle_pose,
+    trailer_rhs,
+    trailer_speed_from_rear_speed,
+)
+from .vehicle import VehicleTrailer, load_vehicle, vehicle_from_dict
+
+__all__ = [
+    "FULL_INPUT",
+    "FULL_STATE",
+    "TRAILER_INPUT",
+    "TRAILER_STATE",
+    "VehicleTrailer",
+    "actual_virtual_steer",
+    "front_steer_from_virtual",
+    "full_rates",
+    "full_rhs",
+    "hitch_point",
+    "load_vehicle",
+    "rear_axle_pose",
+    "rear_speed_from_trailer_speed",
+    "rk4",
+    "step_full",
+    "trailer_rhs",
+    "trailer_speed_from_rear_speed",
+    "trailer_speed_from_virtual",
+    "vehicle_from_dict",
+    "vehicle_yaw_rate_from_virtual",
+    "virtual_steer_bounds",
+    "virtual_steer_from_front",
+]

@@ -1,0 +1,113 @@
+"""Inverse kinematics (Section 3) and steering-feasible virtual-steer bounds (Section 4.2).
+
+The trailer is treated as a vehicle of its own with a virtual steered axle at the
+hitch; these maps carry its inputs (trailer speed V_T, virtual steer delta_T) to the
+vehicle's (rear-axle speed V_R, front steer delta_f) and back. All angles in radians;
+floats, NumPy arrays (broadcast) or CasADi symbols.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .kinematics import full_rates, ops
+from .vehicle import VehicleTrailer
+
+__all__ = [
+    "actual_virtual_steer",
+    "front_steer_from_virtual",
+    "rear_speed_from_trailer_speed",
+    "trailer_speed_from_virtual",
+    "vehicle_yaw_rate_from_virtual",
+    "virtual_steer_bounds",
+    "virtual_steer_from_front",
+]
+
+
+def front_steer_from_virtual(vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any) -> Any:
+    """Front steer delta_f that makes the trailer move as if steered by ``virtual_steer``, Eq. (45).
+
+    Needs L_H > 0. Equivalent to tan(delta_f) = (L / L_H) tan(hitch - delta_T).
+    """
+    vehicle.require_hitch_offset()
+    m = ops(hitch_angle, virtual_steer)
+    s, c, t = m.sin(hitch_angle), m.cos(hitch_angle), m.tan(virtual_steer)
+    L, L_H = vehicle.wheelbase, vehicle.hitch_offset
+    return m.atan(L / L_H * (s - c * t) / (c + s * t))  # Eq. (45)
+
+
+def virtual_steer_from_front(vehicle: VehicleTrailer, hitch_angle: Any, front_steer: Any) -> Any:
+    """Virtual steer delta_T that a front steer produces at the current hitch angle, Eq. (56).
+
+    The exact inverse of Eq. (45): delta_T = hitch - atan((L_H / L) tan(delta_f)).
+    Eq. (56)'s ratio is evaluated with a two-argument arctangent (its denominator is
+    positive whenever |hitch - delta_T| < 90 deg), so the answer stays on the right
+    branch for large hitch angles too. Works for L_H = 0 (then delta_T = hitch).
+    """
+    m = ops(hitch_angle, front_steer)
+    s, c, t = m.sin(hitch_angle), m.cos(hitch_angle), m.tan(front_steer)
+    L, L_H = vehicle.wheelbase, vehicle.hitch_offset
+    return m.atan2(L * s - L_H * c * t, L * c + L_H * s * t)  # Eq. (56)
+
+
+def trailer_speed_from_virtual(vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, rear_speed: Any) -> Any:
+    """Trailer-axle speed V_T from the rear-axle speed V_R, Eq. (44)."""
+    m = ops(hitch_angle, virtual_steer, rear_speed)
+    return rear_speed / (m.cos(hitch_angle) + m.sin(hitch_angle) * m.tan(virtual_steer))  # Eq. (44)
+
+
+def rear_speed_from_trailer_speed(vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, trailer_speed: Any) -> Any:
+    """Rear-axle speed V_R that gives the trailer axle the speed V_T: Eq. (44) solved for V_R."""
+    m = ops(hitch_angle, virtual_steer, trailer_speed)
+    return trailer_speed * (m.cos(hitch_angle) + m.sin(hitch_angle) * m.tan(virtual_steer))  # Eq. (44)
+
+
+def vehicle_yaw_rate_from_virtual(vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, trailer_speed: Any) -> Any:
+    """Vehicle yaw rate that the virtual input asks for, Eq. (43). Needs L_H > 0."""
+    vehicle.require_hitch_offset()
+    m = ops(hitch_angle, virtual_steer, trailer_speed)
+    s, c = m.sin(hitch_angle), m.cos(hitch_angle)
+    return trailer_speed / vehicle.hitch_offset * (s - c * m.tan(virtual_steer))  # Eq. (43)
+
+
+def actual_virtual_steer(
+    vehicle: VehicleTrailer, yaw_trailer: Any, hitch_angle: Any, rear_speed: Any, front_steer: Any
+) -> Any:
+    """Virtual steer the full model actually shows: direction of the hitch velocity minus the trailer yaw, Eq. (46).
+
+    NumPy only. The hitch velocity's direction is taken modulo pi (its line, as
+    Eq. (46)'s single-argument arctangent does), so reverse motion gives the same
+    angle as forward motion; the result lies in [-pi/2, pi/2).
+    """
+    _, yaw_rate_t, v_t = full_rates(vehicle, hitch_angle, rear_speed, front_steer)
+    L_T = vehicle.trailer_length
+    x_dot_h = v_t * np.cos(yaw_trailer) - L_T * yaw_rate_t * np.sin(yaw_trailer)  # Eq. (32)
+    y_dot_h = v_t * np.sin(yaw_trailer) + L_T * yaw_rate_t * np.cos(yaw_trailer)
+    angle = np.arctan2(y_dot_h, x_dot_h) - yaw_trailer  # Eq. (46)
+    return np.mod(angle + np.pi / 2, np.pi) - np.pi / 2
+
+
+def virtual_steer_bounds(vehicle: VehicleTrailer, hitch_angle: Any, virtual_limit: float) -> tuple[Any, Any]:
+    """Steering-feasible bounds on the virtual steer at the current hitch angle, Eqs. (56)-(57).
+
+    Eq. (56) maps the front-steer range [-max_steer, max_steer] to
+    [delta_T,lb1, delta_T,ub1] (it decreases with delta_f), which is intersected with
+    [-virtual_limit, virtual_limit], Eq. (57). Any delta_T in the result maps back
+    through Eq. (45) to a front steer within the vehicle's limit.
+
+    If the two intervals do not meet (a hitch angle beyond about
+    ``virtual_limit + atan(L_H / L * tan(max_steer))``), the vehicle's limit wins:
+    both bounds collapse onto the end of [lb1, ub1] nearest the virtual range.
+    Returns ``(low, high)``, floats or arrays like ``hitch_angle``.
+    """
+    if not np.isfinite(virtual_limit) or virtual_limit <= 0:
+        raise ValueError(f"virtual_limit must be a finite angle > 0 rad, got {virtual_limit!r}")
+    lb1 = virtual_steer_from_front(vehicle, hitch_angle, vehicle.max_steer)  # Eq. (56) at delta_f,max
+    ub1 = virtual_steer_from_front(vehicle, hitch_angle, -vehicle.max_steer)  # Eq. (56) at delta_f,min
+    low = np.clip(np.maximum(lb1, -virtual_limit), lb1, ub1)  # Eq. (57), clipped into [lb1, ub1]
+    high = np.clip(np.minimum(ub1, virtual_limit), lb1, ub1)
+    if np.ndim(low) == 0:
+        return float(low), float(high)
+    return low, high

@@ -1,0 +1,154 @@
+"""Vehicle-trailer parameters (Table 1 of the paper; defaults from Table 4)."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
+from typing import Any
+
+__all__ = ["VehicleTrailer", "load_vehicle", "vehicle_from_dict"]
+
+
+def _check_finite(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"{name} must be a number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value}")
+    return value
+
+
+def _check_positive(name: str, value: Any, unit: str = "m") -> float:
+    value = _check_finite(name, value)
+    if value <= 0.0:
+        raise ValueError(f"{name} must be > 0 {unit}, got {value:g}")
+    return value
+
+
+def _check_angle(name: str, value: Any, upper_deg: float) -> float:
+    value = _check_finite(name, value)
+    if not 0.0 < value < math.radians(upper_deg):
+        raise ValueError(
+            f"{name} must be in (0, {math.radians(upper_deg):.6g}) rad, i.e. (0, {upper_deg:g}) deg, "
+            f"got {value:g} rad ({math.degrees(value):g} deg)"
+        )
+    return value
+
+
+@dataclass(frozen=True)
+class VehicleTrailer:
+    """A car-like tractor with one on-axle trailer hitched behind its rear axle.
+
+    Lengths in metres, angles in radians. The defaults are the paper's Table 4
+    vehicle (kinematic lengths and steer limit); the body dimensions, which the
+    paper does not give, are those of a mid-size SUV towing a small box trailer.
+
+    Parameters
+    ----------
+    wheelbase : float
+        L, rear axle to front axle [m], > 0.
+    hitch_offset : float
+        L_H, rear axle to hitch joint, measured backwards [m], >= 0. The inverse
+        kinematics (Eqs. 43-45) divide by it and need L_H > 0.
+    trailer_length : float
+        L_T, hitch joint to trailer axle [m], > 0.
+    max_steer : float
+        Front-wheel steer limit |delta_f| <= max_steer [rad], in (0, pi/2).
+    max_hitch : float
+        Jackknife limit |hitch angle| <= max_hitch [rad], in (0, pi/2). Default 70 deg.
+    front_overhang, rear_overhang : float
+        Vehicle body ahead of the front axle / behind the rear axle [m], > 0.
+    vehicle_width : float
+        Vehicle body width [m], > 0.
+    trailer_front, trailer_rear : float
+        Trailer body ahead of / behind the trailer axle [m], > 0; the body front
+        must lie behind the hitch (trailer_front < trailer_length).
+    trailer_width : float
+        Trailer body width [m], > 0.
+    """
+
+    wheelbase: float = 2.896
+    hitch_offset: float = 1.159
+    trailer_length: float = 2.693
+    max_steer: float = 0.75
+    max_hitch: float = math.radians(70.0)
+    front_overhang: float = 0.95
+    rear_overhang: float = 1.0
+    vehicle_width: float = 1.95
+    trailer_front: float = 2.0
+    trailer_rear: float = 1.0
+    trailer_width: float = 1.8
+
+    def __post_init__(self) -> None:
+        for name in (
+            "wheelbase",
+            "trailer_length",
+            "front_overhang",
+            "rear_overhang",
+            "vehicle_width",
+            "trailer_front",
+            "trailer_rear",
+            "trailer_width",
+        ):
+            object.__setattr__(self, name, _check_positive(name, getattr(self, name)))
+        hitch = _check_finite("hitch_offset", self.hitch_offset)
+        if hitch < 0.0:
+            raise ValueError(
+                f"hitch_offset must be >= 0 m (hitch behind the rear axle), got {hitch:g}"
+            )
+        object.__setattr__(self, "hitch_offset", hitch)
+        object.__setattr__(self, "max_steer", _check_angle("max_steer", self.max_steer, 90.0))
+        object.__setattr__(self, "max_hitch", _check_angle("max_hitch", self.max_hitch, 90.0))
+        if self.trailer_front >= self.trailer_length:
+            raise ValueError(
+                f"trailer_front must be < trailer_length ({self.trailer_length:g} m): "
+                f"the trailer body ends before the hitch, got {self.trailer_front:g}"
+            )
+
+    def require_hitch_offset(self) -> None:
+        """Raise ``ValueError`` unless L_H > 0, which the inverse kinematics need."""
+        if self.hitch_offset <= 0.0:
+            raise ValueError(
+                "hitch_offset must be > 0 m for the inverse kinematics (Eq. 45 divides by L_H); "
+                f"got {self.hitch_offset:g}"
+            )
+
+    def with_(self, **changes: Any) -> VehicleTrailer:
+        """Return a copy with some fields changed (checked again)."""
+        return replace(self, **changes)
+
+    def to_dict(self) -> dict[str, float]:
+        return asdict(self)
+
+
+_FIELDS = tuple(f.name for f in fields(VehicleTrailer))
+
+
+def vehicle_from_dict(data: dict[str, Any], base: VehicleTrailer | None = None) -> VehicleTrailer:
+    """Build a vehicle from a mapping of field names, starting from ``base`` (default: Table 4)."""
+    unknown = sorted(set(data) - set(_FIELDS))
+    if unknown:
+        raise ValueError(f"unknown vehicle field {unknown[0]!r}; allowed fields: {', '.join(_FIELDS)}")
+    return replace(base or VehicleTrailer(), **data)
+
+
+def load_vehicle(path: str | Path, base: VehicleTrailer | None = None) -> VehicleTrailer:
+    """Read a vehicle from a TOML file whose keys are :class:`VehicleTrailer` field names.
+
+    The keys may sit at the top level or under a ``[vehicle]`` table.
+    """
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ValueError(f"cannot read vehicle file {path}: {exc.strerror or exc}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"vehicle file {path} is not valid TOML: {exc}") from None
+    if "vehicle" in data and isinstance(data["vehicle"], dict) and len(data) == 1:
+        data = data["vehicle"]
+    try:
+        return vehicle_from_dict(data, base)
+    except ValueError as exc:
+        raise ValueError(f"vehicle file {path}: {exc}") from None

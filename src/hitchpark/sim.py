@@ -1,0 +1,189 @@
+"""Open-loop simulation of the full vehicle-trailer model and the trajectory record.
+
+A :class:`Trajectory` holds named columns in SI units (radians). Row k holds the
+state at ``t[k]`` and the command applied from ``t[k]`` to ``t[k+1]``; the last row
+holds the final state and a stop (zero speed, steer held).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .model.integrate import step_full
+from .model.kinematics import rear_axle_pose
+from .model.vehicle import VehicleTrailer
+
+__all__ = ["BASE_COLUMNS", "SimulationResult", "State", "Trajectory", "check_state", "simulate"]
+
+#: Columns every trajectory has, in order.
+BASE_COLUMNS = (
+    "t",
+    "x_trailer",
+    "y_trailer",
+    "yaw_trailer",
+    "yaw_vehicle",
+    "hitch",
+    "x_rear",
+    "y_rear",
+    "rear_speed",
+    "front_steer",
+)
+
+
+@dataclass(frozen=True)
+class State:
+    """Configuration of the system: trailer-axle pose [m, m, rad] and hitch angle [rad]."""
+
+    x: float
+    y: float
+    yaw: float
+    hitch: float
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.x, self.y, self.yaw, self.hitch], dtype=float)
+
+    @classmethod
+    def from_array(cls, values: Iterable[float]) -> State:
+        x, y, yaw, hitch = (float(v) for v in values)
+        return cls(x, y, yaw, hitch)
+
+    def to_dict(self) -> dict[str, float]:
+        return {"x": self.x, "y": self.y, "yaw_deg": math.degrees(self.yaw), "hitch_deg": math.degrees(self.hitch)}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> State:
+        return cls(float(data["x"]), float(data["y"]), math.radians(data["yaw_deg"]), math.radians(data["hitch_deg"]))
+
+
+def check_state(vehicle: VehicleTrailer, state: State, what: str = "start") -> None:
+    """Raise ``ValueError`` if ``state`` is not finite or is beyond the jackknife limit."""
+    for name, value in (("x", state.x), ("y", state.y), ("yaw", state.yaw), ("hitch", state.hitch)):
+        if not math.isfinite(value):
+            raise ValueError(f"{what} {name} must be finite, got {value}")
+    if abs(state.hitch) > vehicle.max_hitch:
+        raise ValueError(
+            f"{what} hitch angle must be within the jackknife limit +-{math.degrees(vehicle.max_hitch):g} deg, "
+            f"got {math.degrees(state.hitch):g} deg"
+        )
+
+
+class Trajectory:
+    """Named columns of equal length (NumPy arrays), addressed by name: ``traj["hitch"]``."""
+
+    def __init__(self, columns: Mapping[str, Any]):
+        self.columns = {k: np.asarray(v, dtype=float) for k, v in columns.items()}
+        lengths = {len(v) for v in self.columns.values()}
+        if len(lengths) > 1:
+            raise ValueError(f"trajectory columns differ in length: {sorted(lengths)}")
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.columns[name]
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.columns
+
+    def __len__(self) -> int:
+        return len(next(iter(self.columns.values()))) if self.columns else 0
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self.columns)
+
+    def states(self) -> np.ndarray:
+        """(n, 4) array of the full-model state ``(x_trailer, y_trailer, yaw_trailer, hitch)``."""
+        return np.column_stack([self["x_trailer"], self["y_trailer"], self["yaw_trailer"], self["hitch"]])
+
+    def to_dict(self) -> dict[str, list[float | None]]:
+        """Columns as lists; NaN (e.g. no solve time on a forward step) becomes ``None``."""
+        return {k: [None if not math.isfinite(x) else float(x) for x in v] for k, v in self.columns.items()}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Iterable[float | None]]) -> Trajectory:
+        return cls({k: [np.nan if x is None else x for x in v] for k, v in data.items()})
+
+    def to_csv(self, path: str) -> None:
+        header = ",".join(self.names)
+        np.savetxt(path, np.column_stack(list(self.columns.values())), delimiter=",", header=header, comments="")
+
+
+def state_columns(vehicle: VehicleTrailer, states: np.ndarray) -> dict[str, np.ndarray]:
+    """The state part of the base columns from an (n, 4) array of full-model states."""
+    x_t, y_t, yaw_t, hitch = states.T
+    x_r, y_r, yaw_v = rear_axle_pose(vehicle, x_t, y_t, yaw_t, hitch)
+    return {
+        "x_trailer": x_t,
+        "y_trailer": y_t,
+        "yaw_trailer": yaw_t,
+        "yaw_vehicle": yaw_v,
+        "hitch": hitch,
+        "x_rear": x_r,
+        "y_rear": y_r,
+    }
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """Result of :func:`simulate`: the trajectory and why it ended (``"completed"`` or ``"jackknife"``)."""
+
+    vehicle: VehicleTrailer
+    start: State
+    trajectory: Trajectory
+    reason: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "vehicle": self.vehicle.to_dict(),
+            "start": self.start.to_dict(),
+            "reason": self.reason,
+            "trajectory": self.trajectory.to_dict(),
+        }
+
+
+def simulate(
+    vehicle: VehicleTrailer,
+    start: State,
+    rear_speed: float,
+    front_steer: float,
+    duration: float,
+    dt: float = 0.1,
+) -> SimulationResult:
+    """Drive the full model (Eqs. 19-24) with a constant rear-axle speed and front steer.
+
+    The samples are ``dt`` apart (the last one shorter if ``duration`` is not a
+    multiple of ``dt``). The run stops early, with reason ``"jackknife"``, before a
+    step that would take the hitch angle past ``vehicle.max_hitch``.
+    """
+    check_state(vehicle, start)
+    for name, value in (("speed", rear_speed), ("steer", front_steer), ("duration", duration), ("dt", dt)):
+        if not math.isfinite(value):
+            raise ValueError(f"{name} must be finite, got {value}")
+    if abs(front_steer) > vehicle.max_steer:
+        raise ValueError(
+            f"steer must be within +-{math.degrees(vehicle.max_steer):g} deg (max_steer), "
+            f"got {math.degrees(front_steer):g} deg"
+        )
+    if dt <= 0:
+        raise ValueError(f"dt must be > 0 s, got {dt:g}")
+    if duration <= 0:
+        raise ValueError(f"duration must be > 0 s, got {duration:g}")
+    n = max(1, math.ceil(duration / dt - 1e-9))
+    times = np.minimum(np.arange(n + 1) * dt, duration)
+    states = [start.as_array()]
+    reason = "completed"
+    for k in range(n):
+        nxt = step_full(vehicle, states[-1], rear_speed, front_steer, times[k + 1] - times[k])
+        if abs(nxt[3]) > vehicle.max_hitch:
+            reason = "jackknife"
+            break
+        states.append(nxt)
+    m = len(states)
+    cols: dict[str, Any] = {"t": times[:m], **state_columns(vehicle, np.array(states))}
+    cols["rear_speed"] = np.full(m, rear_speed)
+    cols["rear_speed"][-1] = 0.0
+    cols["front_steer"] = np.full(m, front_steer)
+    return SimulationResult(vehicle, start, Trajectory({c: cols[c] for c in BASE_COLUMNS}), reason)

@@ -1,0 +1,30 @@
+"""Shared fixtures and the Hypothesis profile for the hitchpark tests."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import HealthCheck, settings
+
+from hitchpark.model import VehicleTrailer
+
+# Modest example counts and no per-example deadline: the suite must stay fast and must
+# not fail because a machine happens to be slow.
+settings.register_profile(
+    "hitchpark",
+    max_examples=150,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
+settings.load_profile("hitchpark")
+
+
+@pytest.fixture
+def table4() -> VehicleTrailer:
+    """The paper's simulation vehicle (Table 4), which is also the package default."""
+    return VehicleTrailer()
+
+
+@pytest.fixture
+def table2() -> VehicleTrailer:
+    """The inverse-kinematics study vehicle (Table 2): L = 3, L_H = 1, L_T = 2.5 m."""
+    return VehicleTrailer(wheelbase=3.0, hitch_offset=1.0, trailer_length=2.5)
