@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import re
 import sys
@@ -10,8 +11,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from .control.nmpc import Pose
 from .model.vehicle import VehicleTrailer, load_vehicle, vehicle_from_dict
-from .sim import State
+from .sim import State, check_state
+
+_VEHICLE_OVERRIDES = ("wheelbase", "hitch_offset", "trailer_length")
 
 EXIT_BAD_INPUT = 2
 
@@ -61,16 +65,15 @@ def _add_vehicle_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--vehicle", metavar="FILE.toml", type=Path, help="TOML file with VehicleTrailer field names")
     g.add_argument("--wheelbase", type=float, metavar="M", help="L, rear to front axle [m]; overrides the file")
     g.add_argument("--hitch-offset", type=float, metavar="M", help="L_H, rear axle to hitch [m]; overrides the file")
-    g.add_argument("--trailer-length", type=float, metavar="M", help="L_T, hitch to trailer axle [m]; overrides the file")
+    g.add_argument(
+        "--trailer-length", type=float, metavar="M", help="L_T, hitch to trailer axle [m]; overrides the file"
+    )
 
 
 def vehicle_from_args(args: argparse.Namespace) -> VehicleTrailer:
-    base = load_vehicle(args.vehicle) if args.vehicle is not None else VehicleTrailer()
-    overrides = {
-        name: getattr(args, name)
-        for name in ("wheelbase", "hitch_offset", "trailer_length")
-        if getattr(args, name) is not None
-    }
+    """The vehicle file (or ``args.vehicle_base``, or Table 4) with the command-line overrides on top."""
+    base = load_vehicle(args.vehicle) if args.vehicle is not None else getattr(args, "vehicle_base", VehicleTrailer())
+    overrides = {name: getattr(args, name) for name in _VEHICLE_OVERRIDES if getattr(args, name) is not None}
     return vehicle_from_dict(overrides, base) if overrides else base
 
 
@@ -117,6 +120,83 @@ def _cmd_ik_study(args: argparse.Namespace) -> int:
     return 0
 
 
+def parse_goal(text: str) -> Pose:
+    """``X,Y,YAW_DEG`` -> goal :class:`Pose` of the trailer axle."""
+    x, y, yaw = _floats(text, 3, "--goal", "X,Y,YAW_DEG")
+    return Pose(x, y, math.radians(yaw))
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from .maneuver.report import reproduce, table5
+
+    plots = not args.no_plots
+    results, summary = reproduce(args.out, plots=plots, animation=plots, progress=print)
+    print()
+    print("Table 5 (trailer distance error, orientation error, final hitch angle):")
+    print(table5(results))
+    print(f"\nsummary: {summary}")
+    return 0 if all(r.success for r in results) else 1
+
+
+def _cmd_park(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from .maneuver.report import save_maneuver, summary_entry, table5
+    from .maneuver.scenario import Scenario, load_scenario
+
+    if args.scenario is None and args.start is None:
+        raise UsageError("give --start X,Y,YAW_DEG,HITCH_DEG or --scenario FILE")
+    sc = load_scenario(args.scenario) if args.scenario is not None else Scenario("park", parse_start(args.start))
+    changes: dict[str, Any] = {}
+    if args.start is not None:
+        changes["start"] = parse_start(args.start)
+    if args.goal is not None:
+        changes["goal"] = parse_goal(args.goal)
+    if args.vehicle is not None or any(getattr(args, n) is not None for n in _VEHICLE_OVERRIDES):
+        if args.vehicle is None:
+            args.vehicle_base = sc.vehicle
+        changes["vehicle"] = vehicle_from_args(args)
+    sc = replace(sc, **changes)
+    sc.vehicle.require_hitch_offset()
+    check_state(sc.vehicle, sc.start)
+
+    from .maneuver.process import park
+
+    result = park(sc.vehicle, sc.start, sc.goal, sc.settings, name=sc.name)
+    plots = not args.no_plots
+    files = save_maneuver(result, args.out, plots=plots, animation=plots)
+    entry = summary_entry(result, "maneuver.json")
+    print(table5([result]))
+    print(
+        f"{'parked' if result.success else 'NOT parked: ' + result.reason} after {len(result.stages)} stages, "
+        f"{result.duration:.1f} s; max |front steer| {entry['max_abs_front_steer_deg']:.2f} deg, "
+        f"max |hitch| {entry['max_abs_hitch_deg']:.2f} deg"
+    )
+    for name, path in files.items():
+        print(f"{name}: {path}")
+    return 0 if result.success else 1
+
+
+def _cmd_plot(args: argparse.Namespace) -> int:
+    from .io import read_json
+    from .maneuver.process import ManeuverResult
+    from .viz.maneuver import animate_maneuver, plot_maneuver
+
+    try:
+        data = read_json(args.maneuver)
+        result = ManeuverResult.from_dict(data)
+    except OSError as exc:
+        raise UsageError(f"cannot read {args.maneuver}: {exc.strerror or exc}") from None
+    except (KeyError, TypeError, AttributeError, json.JSONDecodeError) as exc:
+        raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON ({type(exc).__name__}: {exc})") from None
+    out = args.out if args.out is not None else args.maneuver.parent
+    for path in plot_maneuver(result, out):
+        print(f"figure: {path}")
+    if not args.no_animation:
+        print(f"animation: {animate_maneuver(result, out / 'maneuver.gif')}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="hitchpark",
@@ -149,6 +229,41 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--speed", type=float, default=-1.0, metavar="V", help="rear-axle speed [m/s] (default -1)")
     p.add_argument("--no-plots", action="store_true", help="write the JSON only")
     p.set_defaults(func=_cmd_ik_study)
+
+    p = sub.add_parser(
+        "reproduce",
+        help="run the paper's four scenarios (Section 6.1, Table 5)",
+        description="Park from the four shipped scenarios (parallel, parallel with hitch angle, perpendicular, "
+        "random) with the 3-stage process, print Table 5, and write DIR/summary.json and, per scenario, "
+        "DIR/NAME/maneuver.json with figures (Figs. 8-15) and an animation. Exit status 1 if any fails to park.",
+    )
+    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder")
+    p.add_argument("--no-plots", action="store_true", help="write JSON only (no figures, no animation)")
+    p.set_defaults(func=_cmd_reproduce)
+
+    p = sub.add_parser(
+        "park",
+        help="park from one start pose",
+        description="Park the trailer from one start with the 3-stage process (reverse NMPC, forward pure pursuit, "
+        "reverse) and write DIR/maneuver.json, figures and an animation. Exit status 1 if it does not park.",
+    )
+    p.add_argument("--start", metavar="X,Y,YAW_DEG,HITCH_DEG", help="trailer-axle pose and hitch angle (world frame)")
+    p.add_argument("--goal", metavar="X,Y,YAW_DEG", help="goal trailer-axle pose (default 0,0,0 or the scenario's)")
+    p.add_argument("--scenario", type=Path, metavar="FILE.toml", help="scenario file; --start/--goal override it")
+    _add_vehicle_options(p)
+    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder")
+    p.add_argument("--no-plots", action="store_true", help="write maneuver.json only")
+    p.set_defaults(func=_cmd_park)
+
+    p = sub.add_parser(
+        "plot",
+        help="re-plot a saved maneuver.json",
+        description="Draw the figures and the animation of a saved maneuver without re-running it.",
+    )
+    p.add_argument("maneuver", type=Path, metavar="MANEUVER.json", help="a maneuver.json written by park/reproduce")
+    p.add_argument("--out", type=Path, metavar="DIR", help="output folder (default: beside the JSON)")
+    p.add_argument("--no-animation", action="store_true", help="figures only")
+    p.set_defaults(func=_cmd_plot)
     return parser
 
 
@@ -159,6 +274,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.func(args))
     except (UsageError, ValueError) as exc:
         print(f"hitchpark {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as exc:  # an output path that cannot be written
+        where = f": {exc.filename}" if exc.filename else ""
+        print(f"hitchpark {args.command}: error: cannot write output{where}: {exc.strerror or exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
 
 

@@ -20,6 +20,9 @@ from .model.vehicle import VehicleTrailer
 
 __all__ = ["BASE_COLUMNS", "SimulationResult", "State", "Trajectory", "check_state", "simulate"]
 
+#: Longest open-loop run :func:`simulate` accepts, in samples (a day at dt = 0.1 s).
+MAX_SIM_STEPS = 864_000
+
 #: Columns every trajectory has, in order.
 BASE_COLUMNS = (
     "t",
@@ -172,6 +175,10 @@ def simulate(
     if duration <= 0:
         raise ValueError(f"duration must be > 0 s, got {duration:g}")
     n = max(1, math.ceil(duration / dt - 1e-9))
+    if n > MAX_SIM_STEPS:
+        raise ValueError(
+            f"duration / dt must give at most {MAX_SIM_STEPS} steps, got {n} (duration {duration:g} s, dt {dt:g} s)"
+        )
     times = np.minimum(np.arange(n + 1) * dt, duration)
     states = [start.as_array()]
     reason = "completed"

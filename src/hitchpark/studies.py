@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -64,7 +65,7 @@ def inverse_kinematics_study(
     rear_speed: float = -1.0,
     duration: float = 20.0,
     dt: float = 0.05,
-    profile: Callable[[float], float] = default_virtual_profile,  # type: ignore[assignment]
+    profile: Callable[[Any], Any] = default_virtual_profile,
     start_hitch: float = 0.0,
 ) -> IKStudyResult:
     """Fig. 3: a desired virtual steer goes through Eq. (45) into the full model; Eq. (46) reads it back.
@@ -72,7 +73,7 @@ def inverse_kinematics_study(
     The front steer is recomputed from the current hitch angle at every evaluation
     of the model (continuous inverse kinematics). Alongside, the trailer-only model
     (Eq. 47) is driven by the same virtual steer and the trailer speed of Eq. (44):
-    both must move the trailer identically.
+    both must move the trailer identically. The record has ``round(duration / dt)`` steps of ``dt``.
     """
     vehicle.require_hitch_offset()
 
@@ -92,7 +93,8 @@ def inverse_kinematics_study(
         z = rk4(rhs, z, dt, substeps=5)
         rows.append(z)
     z_all = np.array(rows)
-    t, hitch, yaw_t = z_all[:, 0], z_all[:, 4], z_all[:, 3]
+    t = np.arange(n + 1) * dt  # the integrated clock z[0] equals this up to rounding
+    hitch, yaw_t = z_all[:, 4], z_all[:, 3]
     desired = np.asarray(profile(t), dtype=float) * np.ones_like(t)
     front = front_steer_from_virtual(vehicle, hitch, desired)
     actual = actual_virtual_steer(vehicle, yaw_t, hitch, rear_speed, front)  # Eq. (46)

@@ -22,7 +22,9 @@ __all__ = ["PLANT_SUBSTEPS", "rk4", "step_full"]
 PLANT_SUBSTEPS = 10
 
 
-def rk4(rhs: Callable[[np.ndarray], np.ndarray], state: np.ndarray, dt: float, substeps: int = PLANT_SUBSTEPS) -> np.ndarray:
+def rk4(
+    rhs: Callable[[np.ndarray], np.ndarray], state: np.ndarray, dt: float, substeps: int = PLANT_SUBSTEPS
+) -> np.ndarray:
     """Integrate ``x' = rhs(x)`` over ``dt`` with ``substeps`` RK4 steps."""
     x = np.asarray(state, dtype=float)
     h = dt / substeps

@@ -58,13 +58,17 @@ def trailer_speed_from_virtual(vehicle: VehicleTrailer, hitch_angle: Any, virtua
     return rear_speed / (m.cos(hitch_angle) + m.sin(hitch_angle) * m.tan(virtual_steer))  # Eq. (44)
 
 
-def rear_speed_from_trailer_speed(vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, trailer_speed: Any) -> Any:
+def rear_speed_from_trailer_speed(
+    vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, trailer_speed: Any
+) -> Any:
     """Rear-axle speed V_R that gives the trailer axle the speed V_T: Eq. (44) solved for V_R."""
     m = ops(hitch_angle, virtual_steer, trailer_speed)
     return trailer_speed * (m.cos(hitch_angle) + m.sin(hitch_angle) * m.tan(virtual_steer))  # Eq. (44)
 
 
-def vehicle_yaw_rate_from_virtual(vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, trailer_speed: Any) -> Any:
+def vehicle_yaw_rate_from_virtual(
+    vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, trailer_speed: Any
+) -> Any:
     """Vehicle yaw rate that the virtual input asks for, Eq. (43). Needs L_H > 0."""
     vehicle.require_hitch_offset()
     m = ops(hitch_angle, virtual_steer, trailer_speed)
@@ -102,6 +106,7 @@ def virtual_steer_bounds(vehicle: VehicleTrailer, hitch_angle: Any, virtual_limi
     both bounds collapse onto the end of [lb1, ub1] nearest the virtual range.
     Returns ``(low, high)``, floats or arrays like ``hitch_angle``.
     """
+    vehicle.require_hitch_offset()  # at L_H = 0 the virtual steer is pinned to the hitch angle
     if not np.isfinite(virtual_limit) or virtual_limit <= 0:
         raise ValueError(f"virtual_limit must be a finite angle > 0 rad, got {virtual_limit!r}")
     lb1 = virtual_steer_from_front(vehicle, hitch_angle, vehicle.max_steer)  # Eq. (56) at delta_f,max

@@ -42,9 +42,7 @@ FULL_INPUT = ("rear_speed", "front_steer")
 TRAILER_STATE = ("x_trailer", "y_trailer", "yaw_trailer")
 TRAILER_INPUT = ("trailer_speed", "virtual_steer")
 
-_NUMPY = SimpleNamespace(
-    sin=np.sin, cos=np.cos, tan=np.tan, atan=np.arctan, atan2=np.arctan2, stack=np.stack
-)
+_NUMPY = SimpleNamespace(sin=np.sin, cos=np.cos, tan=np.tan, atan=np.arctan, atan2=np.arctan2, stack=np.stack)
 _CASADI = SimpleNamespace(
     sin=ca.sin, cos=ca.cos, tan=ca.tan, atan=ca.atan, atan2=ca.atan2, stack=lambda xs: ca.vertcat(*xs)
 )
@@ -106,7 +104,9 @@ def full_rhs(vehicle: VehicleTrailer, state: Any, inputs: Any) -> Any:
     )
 
 
-def trailer_rates(vehicle: VehicleTrailer, yaw_trailer: Any, trailer_speed: Any, virtual_steer: Any) -> tuple[Any, Any, Any]:
+def trailer_rates(
+    vehicle: VehicleTrailer, yaw_trailer: Any, trailer_speed: Any, virtual_steer: Any
+) -> tuple[Any, Any, Any]:
     """(x_dot, y_dot, yaw_dot) of the trailer seen as a vehicle steered at its hitch, Eq. (47)."""
     m = ops(yaw_trailer, trailer_speed, virtual_steer)
     return (

@@ -3,16 +3,19 @@
 from __future__ import annotations
 
 import math
+import numbers
 import tomllib
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 __all__ = ["VehicleTrailer", "load_vehicle", "vehicle_from_dict"]
 
 
 def _check_finite(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
         raise ValueError(f"{name} must be a number, got {value!r}")
     value = float(value)
     if not math.isfinite(value):
@@ -95,9 +98,7 @@ class VehicleTrailer:
             object.__setattr__(self, name, _check_positive(name, getattr(self, name)))
         hitch = _check_finite("hitch_offset", self.hitch_offset)
         if hitch < 0.0:
-            raise ValueError(
-                f"hitch_offset must be >= 0 m (hitch behind the rear axle), got {hitch:g}"
-            )
+            raise ValueError(f"hitch_offset must be >= 0 m (hitch behind the rear axle), got {hitch:g}")
         object.__setattr__(self, "hitch_offset", hitch)
         object.__setattr__(self, "max_steer", _check_angle("max_steer", self.max_steer, 90.0))
         object.__setattr__(self, "max_hitch", _check_angle("max_hitch", self.max_hitch, 90.0))

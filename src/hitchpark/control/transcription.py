@@ -1,0 +1,144 @@
+"""Transcriptions of :class:`~.ocp.TrailerParkingProblem` into a nonlinear program.
+
+A transcription turns the OCP into CasADi's ``{x, p, f, g}`` with the initial
+state as the parameter ``p``, and knows how to lay out bounds, initial guesses
+and solutions. Eq. (51) is the single-shooting form (inputs only); multiple
+shooting keeps the states as unknowns tied by the dynamics as equality
+constraints, which is sparser and better conditioned over long horizons.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from .ocp import TrailerParkingProblem
+
+__all__ = ["MultipleShooting", "SingleShooting", "Transcription", "make_transcription"]
+
+
+class Transcription:
+    """Common interface. ``nlp``, ``lbg``, ``ubg`` are ready for ``casadi.nlpsol``."""
+
+    nlp: dict[str, Any]
+    lbg: np.ndarray
+    ubg: np.ndarray
+
+    def __init__(self, problem: TrailerParkingProblem):
+        self.problem = problem
+
+    def bounds(self, u_min: np.ndarray, u_max: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds on the decision vector given input bounds (same for all k, Eq. 50)."""
+        raise NotImplementedError
+
+    def guess(self, x0: np.ndarray, inputs: np.ndarray, states: np.ndarray | None = None) -> np.ndarray:
+        """Decision vector from an input guess (N, 2) and optionally a state guess (N+1, 3)."""
+        raise NotImplementedError
+
+    def unpack(self, w: np.ndarray, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted states (N+1, 3) and inputs (N, 2) from a decision vector."""
+        raise NotImplementedError
+
+    def _path_constraints(self, xs: list[Any], us: list[Any]) -> tuple[list[Any], list[Any], list[Any]]:
+        g, lb, ub = [], [], []
+        for k, (x, u) in enumerate(zip(xs[:-1], us, strict=True)):
+            for con in self.problem.path_constraints:
+                expr, lo, hi = con(x, u, k)
+                g.append(expr)
+                lb.append(lo)
+                ub.append(hi)
+        return g, lb, ub
+
+
+def _flat(values: list[Any]) -> np.ndarray:
+    if not values:
+        return np.zeros(0)
+    return np.concatenate([np.atleast_1d(np.asarray(ca.DM(v)).ravel()) for v in values])
+
+
+class MultipleShooting(Transcription):
+    """w = [X_0, U_0, X_1, U_1, ..., X_N]; X_0 = p and X_{k+1} = g(X_k, U_k) as equalities."""
+
+    def __init__(self, problem: TrailerParkingProblem):
+        super().__init__(problem)
+        N, nx, nu = problem.horizon, problem.n_x, problem.n_u
+        p = ca.SX.sym("x0", nx)
+        xs = [ca.SX.sym(f"X{k}", nx) for k in range(N + 1)]
+        us = [ca.SX.sym(f"U{k}", nu) for k in range(N)]
+        w: list[Any] = []
+        for k in range(N):
+            w += [xs[k], us[k]]
+        w.append(xs[N])
+        cost = sum(problem.stage_cost(xs[k], us[k]) for k in range(N)) + problem.terminal_cost(xs[N])  # Eq. (49)
+        g: list[Any] = [xs[0] - p]
+        g += [xs[k + 1] - problem.discrete_dynamics(xs[k], us[k]) for k in range(N)]  # Eq. (48)
+        n_eq = nx * (N + 1)
+        pg, plb, pub = self._path_constraints(xs, us)
+        self.nlp = {"x": ca.vertcat(*w), "p": p, "f": cost, "g": ca.vertcat(*g, *pg)}
+        self.lbg = np.concatenate([np.zeros(n_eq), _flat(plb)])
+        self.ubg = np.concatenate([np.zeros(n_eq), _flat(pub)])
+        stride = nx + nu
+        self._x_idx = np.array([[k * stride + i for i in range(nx)] for k in range(N + 1)])
+        self._u_idx = np.array([[k * stride + nx + i for i in range(nu)] for k in range(N)])
+        self._n = stride * N + nx
+
+    def bounds(self, u_min: np.ndarray, u_max: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lb = np.full(self._n, -np.inf)
+        ub = np.full(self._n, np.inf)
+        lb[self._u_idx] = u_min
+        ub[self._u_idx] = u_max
+        return lb, ub
+
+    def guess(self, x0: np.ndarray, inputs: np.ndarray, states: np.ndarray | None = None) -> np.ndarray:
+        if states is None:
+            rollout = [np.asarray(x0, dtype=float)]
+            for u in inputs:
+                rollout.append(np.asarray(self.problem.discrete_dynamics(ca.DM(rollout[-1]), ca.DM(u))).ravel())
+            states = np.array(rollout)
+        w = np.zeros(self._n)
+        w[self._x_idx] = states
+        w[self._x_idx[0]] = x0
+        w[self._u_idx] = inputs
+        return w
+
+    def unpack(self, w: np.ndarray, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        w = np.asarray(w).ravel()
+        return w[self._x_idx], w[self._u_idx]
+
+
+class SingleShooting(Transcription):
+    """w = [U_0, ..., U_{N-1}]; the states are rolled out from p, Eq. (51)."""
+
+    def __init__(self, problem: TrailerParkingProblem):
+        super().__init__(problem)
+        N, nx, nu = problem.horizon, problem.n_x, problem.n_u
+        p = ca.SX.sym("x0", nx)
+        us = [ca.SX.sym(f"U{k}", nu) for k in range(N)]
+        xs = [p]
+        for k in range(N):
+            xs.append(problem.discrete_dynamics(xs[k], us[k]))  # Eq. (48)
+        cost = sum(problem.stage_cost(xs[k], us[k]) for k in range(N)) + problem.terminal_cost(xs[N])  # Eq. (51)
+        pg, plb, pub = self._path_constraints(xs, us)
+        w = ca.vertcat(*us)
+        self.nlp = {"x": w, "p": p, "f": cost, "g": ca.vertcat(*pg)}
+        self.lbg, self.ubg = _flat(plb), _flat(pub)
+        self._rollout = ca.Function("rollout", [w, p], [ca.horzcat(*xs).T])
+        self._N, self._nu = N, nu
+
+    def bounds(self, u_min: np.ndarray, u_max: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.tile(u_min, self._N), np.tile(u_max, self._N)
+
+    def guess(self, x0: np.ndarray, inputs: np.ndarray, states: np.ndarray | None = None) -> np.ndarray:
+        return np.asarray(inputs, dtype=float).ravel()
+
+    def unpack(self, w: np.ndarray, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        w = np.asarray(w).ravel()
+        return np.asarray(self._rollout(w, x0)), w.reshape(self._N, self._nu)
+
+
+def make_transcription(problem: TrailerParkingProblem) -> Transcription:
+    """The transcription named by ``problem.settings.transcription``."""
+    kind = problem.settings.transcription
+    return {"multiple_shooting": MultipleShooting, "single_shooting": SingleShooting}[kind](problem)

@@ -1,0 +1,139 @@
+"""Running scenarios and reporting them: Table 5, ``summary.json``, figures on request.
+
+Figures come from :mod:`hitchpark.viz`, imported only when asked for.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..io import write_json
+from .process import ManeuverResult, park
+from .scenario import Scenario, builtin_scenarios
+
+__all__ = ["PAPER_TABLE5", "reproduce", "run_scenario", "save_maneuver", "summary_entry", "table5"]
+
+#: The paper's Table 5: stage 1 and stage 3 (distance [m], orientation [deg], final hitch [deg]).
+PAPER_TABLE5 = {
+    "parallel": ((0.0525, 0.4976, 11.0584), (0.0033, 0.0319, 0.6667)),
+    "parallel_hitch": ((0.9201, -8.6355, -33.0678), (4.4619e-4, 0.0044, 0.0964)),
+    "perpendicular": ((0.4134, 4.1443, 30.2587), (0.0011, 0.0114, 0.2324)),
+    "random": ((0.0846, -0.6137, -15.2986), (0.0049, -0.0495, -0.9789)),
+}
+
+
+def run_scenario(scenario: Scenario) -> ManeuverResult:
+    """Park from the scenario's start with its vehicle and settings."""
+    return park(scenario.vehicle, scenario.start, scenario.goal, scenario.settings, name=scenario.name)
+
+
+def save_maneuver(result: ManeuverResult, folder: Path, plots: bool = True, animation: bool = True) -> dict[str, Path]:
+    """Write ``maneuver.json`` (and the figures and GIF if asked) into ``folder``; return the paths by name."""
+    folder.mkdir(parents=True, exist_ok=True)
+    files = {"maneuver": write_json(folder / "maneuver.json", result.to_dict())}
+    if plots:
+        from ..viz.maneuver import plot_maneuver
+
+        for p in plot_maneuver(result, folder):
+            files[p.stem] = p
+    if animation:
+        from ..viz.maneuver import animate_maneuver
+
+        files["animation"] = animate_maneuver(result, folder / "maneuver.gif")
+    return files
+
+
+def summary_entry(result: ManeuverResult, file: str) -> dict[str, Any]:
+    """One scenario's record in ``summary.json``."""
+    solve = result.trajectory["solve_ms"]
+    solve = solve[np.isfinite(solve)]
+    return {
+        "name": result.name,
+        "file": file,
+        "success": result.success,
+        "reason": result.reason,
+        "duration_s": result.duration,
+        "stages": [
+            {
+                "kind": s.kind,
+                "steps": s.steps,
+                "distance_error_m": s.distance_error_m,
+                "orientation_error_deg": s.orientation_error_deg,
+                "final_hitch_deg": s.final_hitch_deg,
+            }
+            for s in result.stages
+        ],
+        "max_abs_front_steer_deg": result.max_abs_front_steer_deg,
+        "max_abs_hitch_deg": result.max_abs_hitch_deg,
+        "solve_ms_mean": float(np.mean(solve)) if solve.size else None,
+        "solve_ms_max": float(np.max(solve)) if solve.size else None,
+    }
+
+
+def table5(results: Sequence[ManeuverResult]) -> str:
+    """Table 5's rows: stage 1 and the last reverse stage (stage 3 in the paper), the paper's beneath."""
+    w = (16, 11, 13, 12)
+
+    def cells(dist: float | None, orient: float | None, hitch: float | None) -> str:
+        if dist is None or orient is None or hitch is None:
+            return f"{'-':>{w[1]}}{'-':>{w[2]}}{'-':>{w[3]}}"
+        return f"{dist:>{w[1]}.4g}{orient:>{w[2]}.4f}{hitch:>{w[3]}.4f}"
+
+    sub = f"{'dist [m]':>{w[1]}}{'orient [deg]':>{w[2]}}{'hitch [deg]':>{w[3]}}"
+    lines = [
+        f"{'':<{w[0]}}{'stage 1':^{w[1] + w[2] + w[3]}} | {'stage 3 (last reverse)':^{w[1] + w[2] + w[3]}} |",
+        f"{'scenario':<{w[0]}}{sub[: w[1] + w[2] + w[3]]} | {sub[: w[1] + w[2] + w[3]]} | stages  result",
+    ]
+    lines.append("-" * len(lines[1]))
+    for r in results:
+        reverse = [s for s in r.stages if s.kind == "reverse"]
+        row = [f"{r.name:<{w[0]}}"]
+        for st in (reverse[0] if reverse else None, reverse[-1] if len(reverse) > 1 else None):
+            row.append(
+                cells(*(st.distance_error_m, st.orientation_error_deg, st.final_hitch_deg) if st else (None,) * 3)
+            )
+        lines.append(f"{row[0]}{row[1]} | {row[2]} | {len(r.stages):>6}  {'parked' if r.success else r.reason}")
+        if r.name in PAPER_TABLE5:
+            p1, p3 = PAPER_TABLE5[r.name]
+            lines.append(f"{'  (paper)':<{w[0]}}{cells(*p1)} | {cells(*p3)} |")
+    return "\n".join(lines)
+
+
+def reproduce(
+    out: str | Path,
+    scenarios: Sequence[Scenario] | None = None,
+    plots: bool = True,
+    animation: bool = True,
+    progress: Callable[[str], None] | None = None,
+) -> tuple[list[ManeuverResult], Path]:
+    """Run the scenarios (default: the paper's four), save each, and write ``out/summary.json``.
+
+    Returns the results and the path of the summary. Each scenario's files go to
+    ``out/<name>/``; ``summary.json`` is written last, so it only ever describes
+    results that are on disk.
+    """
+    out = Path(out)
+    scenarios = list(scenarios) if scenarios is not None else builtin_scenarios()
+    results, entries = [], []
+    for sc in scenarios:
+        result = run_scenario(sc)
+        files = save_maneuver(result, out / sc.name, plots=plots, animation=animation)
+        results.append(result)
+        entries.append(summary_entry(result, files["maneuver"].relative_to(out).as_posix()))
+        if progress:
+            final = result.stages[-1]
+            progress(
+                f"{sc.name}: {'parked' if result.success else 'FAILED (' + result.reason + ')'} in "
+                f"{len(result.stages)} stages, {result.duration:.1f} s; "
+                f"final error {1e3 * final.distance_error_m:.2f} mm, "
+                f"{final.orientation_error_deg:.4f} deg, hitch {final.final_hitch_deg:.3f} deg; "
+                f"max |steer| {result.max_abs_front_steer_deg:.2f} deg (limit "
+                f"{math.degrees(result.vehicle.max_steer):.2f})"
+            )
+    summary = write_json(out / "summary.json", {"scenarios": entries})
+    return results, summary
