@@ -15,7 +15,7 @@ $(VENV)/.installed: pyproject.toml | $(BIN)/python
 	touch $@
 
 demo: $(VENV)/.installed
-	$(BIN)/hitchpark ik-study --out $(OUT)
+	$(BIN)/hitchpark reproduce --out $(OUT)
 	@echo "demo results in $(OUT)/"
 
 test: $(VENV)/.installed

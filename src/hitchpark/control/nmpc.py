@@ -184,6 +184,9 @@ class TrailerNMPC:
 
     def step(self, x_trailer: float, y_trailer: float, yaw_trailer: float, hitch: float) -> NMPCStep:
         """Solve the OCP from the current configuration and return U_0 and the vehicle command."""
+        if not all(map(math.isfinite, (x_trailer, y_trailer, yaw_trailer, hitch))):
+            empty = np.full((self.problem.horizon + 1, self.problem.n_x), np.nan)
+            return self._stop("non-finite state", math.nan, 0.0, empty, empty[:-1, :2])
         x0 = np.array(to_goal_frame(self.goal, x_trailer, y_trailer, yaw_trailer), dtype=float)
         u_min, u_max = self.problem.input_bounds(hitch)  # Eqs. (56)-(57) at the current hitch angle
         lbx, ubx = self.transcription.bounds(u_min, u_max)

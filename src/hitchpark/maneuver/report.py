@@ -6,7 +6,10 @@ Figures come from :mod:`hitchpark.viz`, imported only when asked for.
 from __future__ import annotations
 
 import math
+import multiprocessing
+import os
 from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +19,18 @@ from ..io import write_json
 from .process import ManeuverResult, park
 from .scenario import Scenario, builtin_scenarios
 
-__all__ = ["PAPER_TABLE5", "reproduce", "run_scenario", "save_maneuver", "summary_entry", "table5"]
+__all__ = [
+    "PAPER_TABLE5",
+    "render_maneuver",
+    "reproduce",
+    "run_scenario",
+    "save_maneuver",
+    "summary_entry",
+    "table5",
+]
+
+#: Frames of a maneuver's GIF (a ~40 s maneuver plays at about 2.5x real time at 10 fps).
+ANIMATION_FRAMES = 150
 
 #: The paper's Table 5: stage 1 and stage 3 (distance [m], orientation [deg], final hitch [deg]).
 PAPER_TABLE5 = {
@@ -32,10 +46,11 @@ def run_scenario(scenario: Scenario) -> ManeuverResult:
     return park(scenario.vehicle, scenario.start, scenario.goal, scenario.settings, name=scenario.name)
 
 
-def save_maneuver(result: ManeuverResult, folder: Path, plots: bool = True, animation: bool = True) -> dict[str, Path]:
-    """Write ``maneuver.json`` (and the figures and GIF if asked) into ``folder``; return the paths by name."""
-    folder.mkdir(parents=True, exist_ok=True)
-    files = {"maneuver": write_json(folder / "maneuver.json", result.to_dict())}
+def render_maneuver(
+    result: ManeuverResult, folder: Path, plots: bool = True, animation: bool = True
+) -> dict[str, Path]:
+    """Draw the figures and/or the GIF of ``result`` into ``folder``; return the paths by name."""
+    files: dict[str, Path] = {}
     if plots:
         from ..viz.maneuver import plot_maneuver
 
@@ -44,7 +59,15 @@ def save_maneuver(result: ManeuverResult, folder: Path, plots: bool = True, anim
     if animation:
         from ..viz.maneuver import animate_maneuver
 
-        files["animation"] = animate_maneuver(result, folder / "maneuver.gif")
+        files["animation"] = animate_maneuver(result, folder / "maneuver.gif", max_frames=ANIMATION_FRAMES)
+    return files
+
+
+def save_maneuver(result: ManeuverResult, folder: Path, plots: bool = True, animation: bool = True) -> dict[str, Path]:
+    """Write ``maneuver.json`` (and the figures and GIF if asked) into ``folder``; return the paths by name."""
+    folder.mkdir(parents=True, exist_ok=True)
+    files = {"maneuver": write_json(folder / "maneuver.json", result.to_dict())}
+    files.update(render_maneuver(result, folder, plots, animation))
     return files
 
 
@@ -110,21 +133,25 @@ def reproduce(
     plots: bool = True,
     animation: bool = True,
     progress: Callable[[str], None] | None = None,
+    workers: int | None = None,
 ) -> tuple[list[ManeuverResult], Path]:
     """Run the scenarios (default: the paper's four), save each, and write ``out/summary.json``.
 
     Returns the results and the path of the summary. Each scenario's files go to
     ``out/<name>/``; ``summary.json`` is written last, so it only ever describes
-    results that are on disk.
+    results that are on disk. Figures and animations, the slow part, are drawn in
+    ``workers`` processes (default: one per core, at most one per scenario).
     """
     out = Path(out)
     scenarios = list(scenarios) if scenarios is not None else builtin_scenarios()
     results, entries = [], []
     for sc in scenarios:
         result = run_scenario(sc)
-        files = save_maneuver(result, out / sc.name, plots=plots, animation=animation)
+        folder = out / sc.name
+        folder.mkdir(parents=True, exist_ok=True)
+        path = write_json(folder / "maneuver.json", result.to_dict())
         results.append(result)
-        entries.append(summary_entry(result, files["maneuver"].relative_to(out).as_posix()))
+        entries.append(summary_entry(result, path.relative_to(out).as_posix()))
         if progress:
             final = result.stages[-1]
             progress(
@@ -135,5 +162,20 @@ def reproduce(
                 f"max |steer| {result.max_abs_front_steer_deg:.2f} deg (limit "
                 f"{math.degrees(result.vehicle.max_steer):.2f})"
             )
+    if (plots or animation) and results:
+        n = max(1, min(workers or os.cpu_count() or 1, len(results)))
+        folders = [out / r.name for r in results]
+        if n == 1:
+            for r, f in zip(results, folders, strict=True):
+                render_maneuver(r, f, plots, animation)
+        else:
+            with ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn")) as pool:
+                jobs = [
+                    pool.submit(render_maneuver, r, f, plots, animation) for r, f in zip(results, folders, strict=True)
+                ]
+                for job in jobs:
+                    job.result()
+        if progress:
+            progress(f"figures{' and animations' if animation else ''} in {out}/<scenario>/")
     summary = write_json(out / "summary.json", {"scenarios": entries})
     return results, summary
