@@ -45,11 +45,15 @@ def main() -> None:
         s = np.concatenate(solve)
         rows.append((label, ok, worst_dist, worst_orient, s.mean(), np.percentile(s, 95), s.max(), wall))
     base = rows[0][-1]
-    print(f"{'configuration':<52}{'parked':>7}{'s3 dist mm':>11}{'s3 deg':>8}{'mean ms':>9}{'p95 ms':>8}"
-          f"{'max ms':>8}{'wall s':>8}{'x default':>10}")
+    print(
+        f"{'configuration':<52}{'parked':>7}{'s3 dist mm':>11}{'s3 deg':>8}{'mean ms':>9}{'p95 ms':>8}"
+        f"{'max ms':>8}{'wall s':>8}{'x default':>10}"
+    )
     for label, ok, d, o, mean, p95, mx, wall in rows:
-        print(f"{label:<52}{'4/4' if ok else 'NO':>7}{1e3 * d:>11.3f}{o:>8.4f}{mean:>9.2f}{p95:>8.2f}{mx:>8.1f}"
-              f"{wall:>8.2f}{wall / base:>10.2f}")
+        print(
+            f"{label:<52}{'4/4' if ok else 'NO':>7}{1e3 * d:>11.3f}{o:>8.4f}{mean:>9.2f}{p95:>8.2f}{mx:>8.1f}"
+            f"{wall:>8.2f}{wall / base:>10.2f}"
+        )
     print(f"\nNMPC settings: {NMPCSettings()}")
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import re
 import sys
@@ -187,7 +186,9 @@ def _cmd_plot(args: argparse.Namespace) -> int:
         result = ManeuverResult.from_dict(data)
     except OSError as exc:
         raise UsageError(f"cannot read {args.maneuver}: {exc.strerror or exc}") from None
-    except (KeyError, TypeError, AttributeError, json.JSONDecodeError) as exc:
+    except UnicodeDecodeError:
+        raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON (not UTF-8 text)") from None
+    except (KeyError, TypeError, AttributeError, ValueError) as exc:
         raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON ({type(exc).__name__}: {exc})") from None
     out = args.out if args.out is not None else args.maneuver.parent
     for path in plot_maneuver(result, out):

@@ -27,7 +27,8 @@ __all__ = ["NMPCStep", "Pose", "TrailerNMPC", "make_solver", "to_goal_frame", "w
 
 def wrap_angle(a: Any) -> Any:
     """Angle(s) wrapped to [-pi, pi)."""
-    return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
+    r = (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
+    return np.where(r >= np.pi, r - 2 * np.pi, r)  # the modulo can round up to 2 pi
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,7 @@ position, X along the goal trailer heading, so the parked state is zero.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -27,7 +28,15 @@ __all__ = ["NMPCSettings", "PathConstraint", "TrailerParkingProblem"]
 
 
 def _diag(name: str, values: Sequence[float], size: int, positive: bool) -> tuple[float, ...]:
-    vals = tuple(float(v) for v in values)
+    try:
+        items = list(values) if not isinstance(values, str) else None
+    except TypeError:
+        items = None
+    if items is None:
+        raise ValueError(f"{name} must be a list of {size} numbers (the diagonal), got {values!r}")
+    if any(isinstance(v, bool | np.bool_) or not isinstance(v, numbers.Real) for v in items):
+        raise ValueError(f"{name} entries must be numbers, got {items!r}")
+    vals = tuple(float(v) for v in items)
     if len(vals) != size:
         raise ValueError(f"{name} must have {size} diagonal entries, got {len(vals)}")
     for v in vals:

@@ -291,7 +291,7 @@ def park(
                 if t >= ok_crit.max_time - 1e-9:
                     stage_reason = "timeout"
                     break
-                if travelled >= fwd.max_distance:
+                if travelled >= fwd.max_distance - 1e-9:  # summed steps carry rounding
                     stage_reason = "stalled"
                     break
                 steer = pure_pursuit_steer(vehicle, goal, fwd, state)
