@@ -6,12 +6,13 @@ import json
 import math
 import os
 import tempfile
+import tomllib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["read_json", "to_jsonable", "write_json"]
+__all__ = ["read_json", "read_toml", "to_jsonable", "write_json"]
 
 
 def to_jsonable(value: Any) -> Any:
@@ -47,6 +48,17 @@ def write_json(path: str | Path, data: Any) -> Path:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def read_toml(path: str | Path, what: str) -> dict[str, Any]:
+    """Parse a TOML file; an unreadable or invalid one is a ``ValueError`` naming ``what`` and the path."""
+    path = Path(path)
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ValueError(f"cannot read {what} file {path}: {exc.strerror or exc}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{what} file {path} is not valid TOML: {exc}") from None
 
 
 def read_json(path: str | Path) -> Any:

@@ -48,7 +48,7 @@ class PurePursuitSettings:
     lookahead: float = 3.0
     speed: float = 1.0
     hitch_threshold: float = math.radians(1.0)
-    distance_threshold: float = 6.0
+    distance_threshold: float = 8.0
     orientation_threshold: float = math.radians(1.0)
     max_distance: float = 40.0
 

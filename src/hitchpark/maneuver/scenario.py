@@ -27,7 +27,6 @@ The four scenarios of Section 6.1 ship with the package (:func:`builtin_scenario
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field, fields
 from importlib import resources
 from pathlib import Path
@@ -36,6 +35,7 @@ from typing import Any
 from ..control.nmpc import Pose
 from ..control.ocp import NMPCSettings
 from ..control.pure_pursuit import PurePursuitSettings
+from ..io import read_toml
 from ..model.vehicle import VehicleTrailer, vehicle_from_dict
 from ..sim import State, check_state
 from .process import ManeuverSettings, SuccessCriteria
@@ -127,12 +127,7 @@ def scenario_from_dict(data: dict[str, Any], path: Path | None = None) -> Scenar
 def load_scenario(path: str | Path) -> Scenario:
     """Read a scenario TOML file; any problem is a ``ValueError`` naming the file and the key."""
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ValueError(f"cannot read scenario file {path}: {exc.strerror or exc}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ValueError(f"scenario file {path} is not valid TOML: {exc}") from None
+    data = read_toml(path, "scenario")
     try:
         return scenario_from_dict(data, path)
     except ValueError as exc:

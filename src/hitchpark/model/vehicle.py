@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import math
 import numbers
-import tomllib
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from ..io import read_toml
 
 __all__ = ["VehicleTrailer", "load_vehicle", "vehicle_from_dict"]
 
@@ -141,12 +142,7 @@ def load_vehicle(path: str | Path, base: VehicleTrailer | None = None) -> Vehicl
     The keys may sit at the top level or under a ``[vehicle]`` table.
     """
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ValueError(f"cannot read vehicle file {path}: {exc.strerror or exc}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ValueError(f"vehicle file {path} is not valid TOML: {exc}") from None
+    data = read_toml(path, "vehicle")
     if "vehicle" in data and isinstance(data["vehicle"], dict) and len(data) == 1:
         data = data["vehicle"]
     try:
