@@ -37,9 +37,7 @@ def main() -> None:
     controller = TrailerNMPC(vehicle, base.nmpc)
     poses = starts()
     print(f"{len(poses)} starts. Errors are those of the final reverse stage of the maneuvers that parked")
-    print(
-        "after at least one forward stage; 'one-stage' counts those parked at once.\n"
-    )
+    print("after at least one forward stage; 'one-stage' counts those parked at once.\n")
     print(
         f"{'lookahead':>9}{'dist thr':>9}{'align':>6}{'parked':>8}{'one-stage':>10}{'stages':>7}{'T mean s':>9}"
         f"{'dist med mm':>12}{'dist max mm':>12}{'orient max':>11}{'hitch max':>10}"

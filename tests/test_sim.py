@@ -65,12 +65,8 @@ def test_rear_axle_columns_follow_the_links(reversing, table4):
     yaw_t, yaw_v = tr["yaw_trailer"], tr["yaw_vehicle"]
     np.testing.assert_allclose(yaw_v, yaw_t + tr["hitch"], atol=1e-15)
     L_T, L_H = table4.trailer_length, table4.hitch_offset
-    np.testing.assert_allclose(
-        tr["x_rear"], tr["x_trailer"] + L_T * np.cos(yaw_t) + L_H * np.cos(yaw_v), atol=1e-12
-    )
-    np.testing.assert_allclose(
-        tr["y_rear"], tr["y_trailer"] + L_T * np.sin(yaw_t) + L_H * np.sin(yaw_v), atol=1e-12
-    )
+    np.testing.assert_allclose(tr["x_rear"], tr["x_trailer"] + L_T * np.cos(yaw_t) + L_H * np.cos(yaw_v), atol=1e-12)
+    np.testing.assert_allclose(tr["y_rear"], tr["y_trailer"] + L_T * np.sin(yaw_t) + L_H * np.sin(yaw_v), atol=1e-12)
 
 
 def test_each_row_command_from_its_state_reaches_the_next_row(reversing, table4):
@@ -78,9 +74,7 @@ def test_each_row_command_from_its_state_reaches_the_next_row(reversing, table4)
     states = tr.states()
     assert states.shape == (len(tr), 4)
     for k in range(len(tr) - 1):
-        nxt = step_full(
-            table4, states[k], tr["rear_speed"][k], tr["front_steer"][k], tr["t"][k + 1] - tr["t"][k]
-        )
+        nxt = step_full(table4, states[k], tr["rear_speed"][k], tr["front_steer"][k], tr["t"][k + 1] - tr["t"][k])
         np.testing.assert_allclose(nxt, states[k + 1], rtol=0, atol=1e-12)
 
 
@@ -93,9 +87,7 @@ def test_rear_axle_speed_matches_the_command(reversing):
 
 
 def test_jackknife_stops_early(table4):
-    result = simulate(
-        table4, State(0.0, 0.0, 0.0, 0.0), rear_speed=-1.0, front_steer=0.5, duration=60.0, dt=0.1
-    )
+    result = simulate(table4, State(0.0, 0.0, 0.0, 0.0), rear_speed=-1.0, front_steer=0.5, duration=60.0, dt=0.1)
     tr = result.trajectory
     assert result.reason == "jackknife"
     assert tr["t"][-1] < 60.0
@@ -207,6 +199,4 @@ def test_trajectory_csv(tmp_path, reversing):
     header = path.read_text(encoding="utf-8").splitlines()[0]
     assert header.split(",") == list(EXPECTED_COLUMNS)
     table = np.loadtxt(path, delimiter=",", skiprows=1)
-    np.testing.assert_allclose(
-        table[:, EXPECTED_COLUMNS.index("hitch")], reversing.trajectory["hitch"], rtol=1e-15
-    )
+    np.testing.assert_allclose(table[:, EXPECTED_COLUMNS.index("hitch")], reversing.trajectory["hitch"], rtol=1e-15)

@@ -61,9 +61,7 @@ def hitch_and_virtual_steer(draw, margin_deg: float = 1.0):
 def test_front_to_virtual_to_front_round_trip(vehicle, hitch, front):
     virtual = virtual_steer_from_front(vehicle, hitch, front)  # Eq. (56)
     assert abs(hitch - virtual) < math.pi / 2
-    assert front_steer_from_virtual(vehicle, hitch, virtual) == pytest.approx(
-        front, abs=ANGLE_TOL
-    )  # Eq. (45)
+    assert front_steer_from_virtual(vehicle, hitch, virtual) == pytest.approx(front, abs=ANGLE_TOL)  # Eq. (45)
 
 
 @given(vehicle=vehicles, pair=hitch_and_virtual_steer())
@@ -71,9 +69,7 @@ def test_virtual_to_front_to_virtual_round_trip(vehicle, pair):
     hitch, virtual = pair
     front = front_steer_from_virtual(vehicle, hitch, virtual)  # Eq. (45)
     assert abs(front) < math.pi / 2
-    assert virtual_steer_from_front(vehicle, hitch, front) == pytest.approx(
-        virtual, abs=ANGLE_TOL
-    )  # Eq. (56)
+    assert virtual_steer_from_front(vehicle, hitch, front) == pytest.approx(virtual, abs=ANGLE_TOL)  # Eq. (56)
 
 
 @given(vehicle=vehicles, pair=hitch_and_virtual_steer())

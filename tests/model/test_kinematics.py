@@ -112,9 +112,7 @@ def test_steady_forward_hitch_angle(hitch_offset, steer):
     yaw_rate_v, yaw_rate_t, _ = full_rates(vehicle, expected, 1.0, steer)
     assert yaw_rate_t == pytest.approx(yaw_rate_v, abs=1e-14)
     if hitch_offset == 0.0:
-        assert expected == pytest.approx(
-            math.asin(vehicle.trailer_length * math.tan(steer) / vehicle.wheelbase)
-        )
+        assert expected == pytest.approx(math.asin(vehicle.trailer_length * math.tan(steer) / vehicle.wheelbase))
 
     # ... and is what a long forward drive from a straight hitch settles to.
     result = simulate(vehicle, State(0.0, 0.0, 0.0, 0.0), 2.0, steer, duration=60.0, dt=0.2)
@@ -146,9 +144,7 @@ def test_straight_driving_keeps_hitch_zero(rear_speed, hitch_offset):
     travelled = rear_speed * tr["t"]
     np.testing.assert_allclose(tr["x_trailer"], 2.0 + travelled * math.cos(yaw), atol=1e-12)
     np.testing.assert_allclose(tr["y_trailer"], -3.0 + travelled * math.sin(yaw), atol=1e-12)
-    assert math.hypot(tr["x_trailer"][-1] - 2.0, tr["y_trailer"][-1] + 3.0) == pytest.approx(
-        abs(rear_speed) * 10.0
-    )
+    assert math.hypot(tr["x_trailer"][-1] - 2.0, tr["y_trailer"][-1] + 3.0) == pytest.approx(abs(rear_speed) * 10.0)
 
 
 def test_trailer_only_model_turns_on_circle_of_radius_L_T_over_tan_virtual_steer(table2):
@@ -279,9 +275,7 @@ def test_casadi_and_numpy_evaluate_the_same_equations(table4):
     trailer = ca.Function("trailer", [xt, ut], [trailer_rhs(table4, xt, ut)])
     state = np.array([0.3, -1.2, 0.8, -0.35])
     inputs = np.array([-0.7, 0.4])
-    np.testing.assert_allclose(
-        np.array(full(state, inputs)).ravel(), full_rhs(table4, state, inputs), atol=1e-14
-    )
+    np.testing.assert_allclose(np.array(full(state, inputs)).ravel(), full_rhs(table4, state, inputs), atol=1e-14)
     np.testing.assert_allclose(
         np.array(trailer(state[:3], inputs)).ravel(), trailer_rhs(table4, state[:3], inputs), atol=1e-14
     )

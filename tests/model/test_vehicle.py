@@ -120,9 +120,7 @@ def test_vehicle_from_dict_rejects_unknown_field():
 
 def test_load_vehicle_round_trip(tmp_path):
     path = tmp_path / "car.toml"
-    path.write_text(
-        "wheelbase = 3.2\nhitch_offset = 0.9\nmax_steer = 0.6\ntrailer_length = 4\n", encoding="utf-8"
-    )
+    path.write_text("wheelbase = 3.2\nhitch_offset = 0.9\nmax_steer = 0.6\ntrailer_length = 4\n", encoding="utf-8")
     vehicle = load_vehicle(path)
     assert vehicle == VehicleTrailer(wheelbase=3.2, hitch_offset=0.9, max_steer=0.6, trailer_length=4.0)
     assert vehicle.max_hitch == VehicleTrailer().max_hitch  # untouched fields keep their defaults
@@ -173,9 +171,7 @@ def test_load_vehicle_directory(tmp_path):
         load_vehicle(tmp_path)
 
 
-@pytest.mark.parametrize(
-    "content", [b"wheelbase = \n", b"wheelbase 3.0\n", b"[vehicle\n", b"\xff\xfe\x00bad"]
-)
+@pytest.mark.parametrize("content", [b"wheelbase = \n", b"wheelbase 3.0\n", b"[vehicle\n", b"\xff\xfe\x00bad"])
 def test_load_vehicle_invalid_toml(tmp_path, content):
     path = tmp_path / "car.toml"
     path.write_bytes(content)
