@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from .checks import check_number, check_range
+from .model.geometry import check_pose
 from .model.integrate import step_full
 from .model.kinematics import rear_axle_pose
 from .model.vehicle import VehicleTrailer
@@ -22,6 +24,9 @@ __all__ = ["BASE_COLUMNS", "SimulationResult", "State", "Trajectory", "check_sta
 
 #: Longest open-loop run :func:`simulate` accepts, in samples (a day at dt = 0.1 s).
 MAX_SIM_STEPS = 864_000
+
+#: Largest |rear_speed| :func:`simulate` accepts [m/s].
+MAX_SPEED = 30.0
 
 #: Columns every trajectory has, in order.
 BASE_COLUMNS = (
@@ -64,10 +69,9 @@ class State:
 
 
 def check_state(vehicle: VehicleTrailer, state: State, what: str = "start") -> None:
-    """Raise ``ValueError`` if ``state`` is not finite or is beyond the jackknife limit."""
-    for name, value in (("x", state.x), ("y", state.y), ("yaw", state.yaw), ("hitch", state.hitch)):
-        if not math.isfinite(value):
-            raise ValueError(f"{what} {name} must be finite, got {value}")
+    """Raise ``ValueError`` if ``state`` is not a finite pose in range or is beyond the jackknife limit."""
+    check_pose(what, state.x, state.y, state.yaw)
+    check_number(f"{what} hitch", state.hitch)
     if abs(state.hitch) > vehicle.max_hitch:
         raise ValueError(
             f"{what} hitch angle must be within the jackknife limit +-{math.degrees(vehicle.max_hitch):g} deg, "
@@ -162,23 +166,21 @@ def simulate(
     step that would take the hitch angle past ``vehicle.max_hitch``.
     """
     check_state(vehicle, start)
-    for name, value in (("speed", rear_speed), ("steer", front_steer), ("duration", duration), ("dt", dt)):
-        if not math.isfinite(value):
-            raise ValueError(f"{name} must be finite, got {value}")
+    check_range("speed", rear_speed, -MAX_SPEED, MAX_SPEED, unit="m/s (a kinematic model holds at low speed)")
+    check_number("steer", front_steer)
     if abs(front_steer) > vehicle.max_steer:
         raise ValueError(
             f"steer must be within +-{math.degrees(vehicle.max_steer):g} deg (max_steer), "
             f"got {math.degrees(front_steer):g} deg"
         )
-    if dt <= 0:
-        raise ValueError(f"dt must be > 0 s, got {dt:g}")
-    if duration <= 0:
-        raise ValueError(f"duration must be > 0 s, got {duration:g}")
-    n = max(1, math.ceil(duration / dt - 1e-9))
-    if n > MAX_SIM_STEPS:
+    check_range("dt", dt, 0.0, 10.0, low_open=True, unit="s")
+    check_range("duration", duration, 0.0, low_open=True, unit="s")
+    if duration / dt > MAX_SIM_STEPS:
         raise ValueError(
-            f"duration / dt must give at most {MAX_SIM_STEPS} steps, got {n} (duration {duration:g} s, dt {dt:g} s)"
+            f"duration / dt must give at most {MAX_SIM_STEPS} steps, got {duration / dt:.3g} "
+            f"(duration {duration:g} s, dt {dt:g} s)"
         )
+    n = max(1, math.ceil(duration / dt - 1e-9))
     times = np.minimum(np.arange(n + 1) * dt, duration)
     states = [start.as_array()]
     reason = "completed"

@@ -72,7 +72,13 @@ BAD_SETTINGS = [
     ({"R": (-1.0, 0.1)}, "nmpc.R"),
     ({"speed_max": 0.5}, "speed_max"),
     ({"speed_min": 0.0}, "speed_min"),
-    ({"speed_min": -1.0, "speed_max": -2.0}, "speed_min"),
+    ({"speed_min": -1.0, "speed_max": -2.0}, "speed_max"),
+    ({"speed_max": -0.1}, "nmpc.speed_max"),  # zero speed must stay admissible, or the stage never stops
+    ({"speed_min": -1e300}, "nmpc.speed_min"),
+    ({"dt": 1e300}, "nmpc.dt"),
+    ({"horizon": 100_000_000}, "nmpc.horizon"),
+    ({"Q": (0.0, 10.0, 10.0)}, "nmpc.Q"),  # Eq. (49): Q, P > 0
+    ({"P": (1.0, 0.0, 10.0)}, "nmpc.P"),
     ({"speed_min": math.nan}, "nmpc.speed_min"),
     ({"virtual_limit": 0.0}, "nmpc.virtual_limit"),
     ({"virtual_limit": 2.0}, "nmpc.virtual_limit"),
@@ -174,10 +180,10 @@ def test_input_bounds_table3_example(table2):
 
 
 def test_input_bounds_follow_the_settings(table4):
-    problem = TrailerParkingProblem(table4, NMPCSettings(speed_min=-0.4, speed_max=-0.1, virtual_limit=0.2))
+    problem = TrailerParkingProblem(table4, NMPCSettings(speed_min=-0.4, virtual_limit=0.2))
     u_min, u_max = problem.input_bounds(0.0)
     np.testing.assert_allclose(u_min, [-0.4, -0.2])
-    np.testing.assert_allclose(u_max, [-0.1, 0.2])
+    np.testing.assert_allclose(u_max, [0.0, 0.2])
 
 
 # --- transcriptions: layouts of Eqs. (51)-(55) and multiple shooting ----------------------------

@@ -10,8 +10,15 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from hitchpark.control import Pose
-from hitchpark.control.pure_pursuit import PurePursuitSettings, forward_done, pure_pursuit_steer
-from hitchpark.model import VehicleTrailer, rear_axle_pose, step_full
+from hitchpark.control.pure_pursuit import (
+    PurePursuitSettings,
+    forward_done,
+    forward_steer_limit,
+    pure_pursuit_steer,
+)
+from hitchpark.maneuver import park
+from hitchpark.model import VehicleTrailer, full_rhs, rear_axle_pose, step_full
+from hitchpark.sim import State
 
 SETTINGS = PurePursuitSettings()
 GOALS = [Pose(), Pose(5.0, -3.0, math.radians(30.0)), Pose(-12.0, 4.0, math.radians(-135.0))]
@@ -46,8 +53,35 @@ def test_the_pure_pursuit_law(table4):
     alpha = math.atan2(-y_r, math.sqrt(ld**2 - y_r**2)) - yaw_v
     expected = math.atan(2 * table4.wheelbase * math.sin(alpha) / ld)
     assert pure_pursuit_steer(table4, Pose(), SETTINGS, state) == pytest.approx(expected, abs=1e-12)
-    # Far from the line the look-ahead point is the foot of the perpendicular: full lock towards it.
-    assert pure_pursuit_steer(table4, Pose(), SETTINGS, np.array([0.0, 10.0, 0.0, 0.0])) == -table4.max_steer
+    # Far from the line the look-ahead point is the foot of the perpendicular, at the real distance |y|.
+    state = np.array([0.0, 10.0, 0.0, 0.0])
+    _, y_r, yaw_v = rear_axle_pose(table4, *state)
+    expected = math.atan(2 * table4.wheelbase * math.sin(-math.pi / 2 - yaw_v) / abs(y_r))
+    assert pure_pursuit_steer(table4, Pose(), SETTINGS, state) == pytest.approx(expected, abs=1e-12)
+    # Facing away from the line's direction: full lock (the forward limit) towards it.
+    facing_back = np.array([0.0, 1.0, math.pi - 0.3, 0.0])
+    assert pure_pursuit_steer(table4, Pose(), SETTINGS, facing_back) == pytest.approx(forward_steer_limit(table4))
+
+
+def test_forward_steer_limit_holds_the_hitch_inside_max_hitch(table4):
+    """At the limit steer the steady forward hitch is max_hitch - 1 deg: the hitch rate there is zero."""
+    limit = forward_steer_limit(table4)
+    assert 0.0 < limit < table4.max_steer
+    h = table4.max_hitch - math.radians(1.0)
+    rates = full_rhs(table4, np.array([0.0, 0.0, 0.0, h]), np.array([1.0, limit]))
+    assert rates[3] == pytest.approx(0.0, abs=1e-12)
+    # A tighter steer would settle beyond the limit: at max_steer the hitch keeps growing at max_hitch.
+    assert full_rhs(table4, np.array([0.0, 0.0, 0.0, table4.max_hitch]), np.array([1.0, table4.max_steer]))[3] > 0
+
+
+@pytest.mark.parametrize("start", [(4.62, -2.06, 132.24, 15.86), (10.0, 0.0, 180.0, 0.0), (-8.22, -12.17, 147.0, 30.6)])
+def test_forward_stage_neither_jackknifes_nor_stalls(table4, start):
+    """Starts where an uncapped pursuit jackknifed or drove straight away from the line: they park."""
+    x, y, yaw, hitch = start
+    result = park(table4, State(x, y, math.radians(yaw), math.radians(hitch)))
+    assert result.success, result.reason
+    assert any(s.kind == "forward" for s in result.stages)
+    assert result.max_abs_hitch_deg < math.degrees(table4.max_hitch)
 
 
 @given(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -220,7 +221,7 @@ def test_integrated_full_model_follows_trailer_model(vehicle, trailer_speed, vir
 
 
 def test_table3_mapped_bounds(table2):
-    vehicle = table2.with_(max_steer=0.75)
+    vehicle = dataclasses.replace(table2, max_steer=0.75)
     hitch = math.radians(15.0)
     lb1 = math.degrees(virtual_steer_from_front(vehicle, hitch, 0.75))
     ub1 = math.degrees(virtual_steer_from_front(vehicle, hitch, -0.75))
@@ -229,7 +230,7 @@ def test_table3_mapped_bounds(table2):
 
 
 def test_table3_intersected_bounds(table2):
-    vehicle = table2.with_(max_steer=0.75)
+    vehicle = dataclasses.replace(table2, max_steer=0.75)
     low, high = virtual_steer_bounds(vehicle, math.radians(15.0), 0.5)
     assert isinstance(low, float)
     assert isinstance(high, float)

@@ -88,12 +88,12 @@ def test_vehicle_is_frozen(table4):
     assert table4.wheelbase == 2.896
 
 
-def test_with_returns_a_checked_copy(table4):
-    longer = table4.with_(trailer_length=4.0)
+def test_replace_returns_a_checked_copy(table4):
+    longer = dataclasses.replace(table4, trailer_length=4.0)
     assert longer.trailer_length == 4.0
     assert table4.trailer_length == 2.693
     with pytest.raises(ValueError, match="trailer_length"):
-        table4.with_(trailer_length=-4.0)
+        dataclasses.replace(table4, trailer_length=-4.0)
 
 
 def test_to_dict_round_trips_through_vehicle_from_dict():

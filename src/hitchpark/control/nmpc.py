@@ -17,47 +17,13 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from ..model.geometry import Pose, to_goal_frame, wrap_angle
 from ..model.inverse import front_steer_from_virtual, rear_speed_from_trailer_speed
 from ..model.vehicle import VehicleTrailer
 from .ocp import NMPCSettings, TrailerParkingProblem
 from .transcription import Transcription, make_transcription
 
 __all__ = ["NMPCStep", "Pose", "TrailerNMPC", "make_solver", "to_goal_frame", "wrap_angle"]
-
-
-def wrap_angle(a: Any) -> Any:
-    """Angle(s) wrapped to [-pi, pi)."""
-    r = (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
-    return np.where(r >= np.pi, r - 2 * np.pi, r)  # the modulo can round up to 2 pi
-
-
-@dataclass(frozen=True)
-class Pose:
-    """A planar pose in the world frame [m, m, rad]; the goal is the trailer-axle pose when parked."""
-
-    x: float = 0.0
-    y: float = 0.0
-    yaw: float = 0.0
-
-    def __post_init__(self) -> None:
-        for name in ("x", "y", "yaw"):
-            v = getattr(self, name)
-            if not math.isfinite(v):
-                raise ValueError(f"goal {name} must be finite, got {v}")
-
-    def to_dict(self) -> dict[str, float]:
-        return {"x": self.x, "y": self.y, "yaw_deg": math.degrees(self.yaw)}
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> Pose:
-        return cls(float(data["x"]), float(data["y"]), math.radians(data["yaw_deg"]))
-
-
-def to_goal_frame(goal: Pose, x: Any, y: Any, yaw: Any) -> tuple[Any, Any, Any]:
-    """World pose(s) -> parking frame of ``goal`` (Fig. 5): origin at the goal, X along its heading."""
-    c, s = math.cos(goal.yaw), math.sin(goal.yaw)
-    dx, dy = np.asarray(x) - goal.x, np.asarray(y) - goal.y
-    return c * dx + s * dy, -s * dx + c * dy, wrap_angle(np.asarray(yaw) - goal.yaw)
 
 
 def make_solver(transcription: Transcription, settings: NMPCSettings) -> Any:
@@ -185,9 +151,14 @@ class TrailerNMPC:
 
     def step(self, x_trailer: float, y_trailer: float, yaw_trailer: float, hitch: float) -> NMPCStep:
         """Solve the OCP from the current configuration and return U_0 and the vehicle command."""
+        refuse = ""
         if not all(map(math.isfinite, (x_trailer, y_trailer, yaw_trailer, hitch))):
+            refuse = "non-finite state"
+        elif abs(hitch) > self.vehicle.max_hitch:
+            refuse = "hitch angle beyond max_hitch"  # Eqs. (44)-(45) would ask for nonsense (even driving forward)
+        if refuse:
             empty = np.full((self.problem.horizon + 1, self.problem.n_x), np.nan)
-            return self._stop("non-finite state", math.nan, 0.0, empty, empty[:-1, :2])
+            return self._stop(refuse, math.nan, 0.0, empty, empty[:-1, : self.problem.n_u])
         x0 = np.array(to_goal_frame(self.goal, x_trailer, y_trailer, yaw_trailer), dtype=float)
         u_min, u_max = self.problem.input_bounds(hitch)  # Eqs. (56)-(57) at the current hitch angle
         lbx, ubx = self.transcription.bounds(u_min, u_max)

@@ -1,7 +1,7 @@
 """The trailer-parking optimal control problem, Eqs. (47)-(57): model, cost, constraints.
 
 This module says *what* is optimised. How it becomes a nonlinear program
-(:mod:`.transcription`) and which solver solves it (:mod:`.solver`) are chosen
+(:mod:`.transcription`) and which solver solves it (:func:`.nmpc.make_solver`) are chosen
 apart, so solvers can be swapped and the problem extended (longer horizons, more
 states, obstacle constraints) without touching the others.
 
@@ -12,7 +12,6 @@ position, X along the goal trailer heading, so the parked state is zero.
 from __future__ import annotations
 
 import math
-import numbers
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -20,6 +19,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from ..checks import check_int, check_range
 from ..model.inverse import virtual_steer_bounds
 from ..model.kinematics import TRAILER_INPUT, TRAILER_STATE, trailer_rhs
 from ..model.vehicle import VehicleTrailer
@@ -32,18 +32,10 @@ def _diag(name: str, values: Sequence[float], size: int, positive: bool) -> tupl
         items = list(values) if not isinstance(values, str) else None
     except TypeError:
         items = None
-    if items is None:
+    if items is None or len(items) != size:
         raise ValueError(f"{name} must be a list of {size} numbers (the diagonal), got {values!r}")
-    if any(isinstance(v, bool | np.bool_) or not isinstance(v, numbers.Real) for v in items):
-        raise ValueError(f"{name} entries must be numbers, got {items!r}")
-    vals = tuple(float(v) for v in items)
-    if len(vals) != size:
-        raise ValueError(f"{name} must have {size} diagonal entries, got {len(vals)}")
-    for v in vals:
-        if not math.isfinite(v) or v < 0 or (positive and v == 0):
-            bound = "> 0" if positive else ">= 0"
-            raise ValueError(f"{name} entries must be finite and {bound}, got {list(vals)}")
-    return vals
+    low_open = positive  # Q, P > 0 as Eq. (49) asks; R may have zeros (Table 4: R = diag(0, 0.1))
+    return tuple(check_range(f"{name}[{i}]", v, 0.0, low_open=low_open) for i, v in enumerate(items))
 
 
 @dataclass(frozen=True)
@@ -99,28 +91,21 @@ class NMPCSettings:
     solver_options: dict[str, Any] = field(default_factory=dict, hash=False, compare=False)
 
     def __post_init__(self) -> None:
-        for name in ("dt", "speed_min", "speed_max", "virtual_limit", "stop_speed"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-                raise ValueError(f"nmpc.{name} must be a finite number, got {v!r}")
-        if self.dt <= 0:
-            raise ValueError(f"nmpc.dt must be > 0 s, got {self.dt:g}")
-        for name in ("horizon", "max_steps"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ValueError(f"nmpc.{name} must be an integer >= 1, got {v!r}")
-        object.__setattr__(self, "Q", _diag("nmpc.Q", self.Q, 3, positive=False))
-        object.__setattr__(self, "P", _diag("nmpc.P", self.P, 3, positive=False))
-        object.__setattr__(self, "R", _diag("nmpc.R", self.R, 2, positive=False))
-        if not self.speed_min < 0.0 or self.speed_max > 0.0 or self.speed_min >= self.speed_max:
-            raise ValueError(
-                f"nmpc speed bounds must satisfy speed_min < 0 and speed_min < speed_max <= 0 m/s (reverse only), "
-                f"got [{self.speed_min:g}, {self.speed_max:g}]"
-            )
-        if not 0.0 < self.virtual_limit < math.pi / 2:
-            raise ValueError(f"nmpc.virtual_limit must be in (0, pi/2) rad, got {self.virtual_limit:g}")
-        if self.stop_speed <= 0:
-            raise ValueError(f"nmpc.stop_speed must be > 0 m/s, got {self.stop_speed:g}")
+        def put(name: str, value: Any) -> None:
+            object.__setattr__(self, name, value)
+
+        put("dt", check_range("nmpc.dt", self.dt, 0.0, 1.0, low_open=True, unit="s"))
+        put("horizon", check_int("nmpc.horizon", self.horizon, 1, 500))
+        put("max_steps", check_int("nmpc.max_steps", self.max_steps, 1, 1_000_000))
+        put("Q", _diag("nmpc.Q", self.Q, 3, positive=True))
+        put("P", _diag("nmpc.P", self.P, 3, positive=True))
+        put("R", _diag("nmpc.R", self.R, 2, positive=False))
+        put("speed_min", check_range("nmpc.speed_min", self.speed_min, -10.0, 0.0, high_open=True, unit="m/s"))
+        # The stage ends when the optimal speed is zero (Section 4.1): zero must be admissible.
+        put("speed_max", check_range("nmpc.speed_max", self.speed_max, 0.0, 0.0, unit="m/s (the stop rule needs it)"))
+        lim = check_range("nmpc.virtual_limit", self.virtual_limit, 0.0, math.pi / 2, low_open=True, high_open=True)
+        put("virtual_limit", lim)
+        put("stop_speed", check_range("nmpc.stop_speed", self.stop_speed, 0.0, 0.1, low_open=True, unit="m/s"))
         if self.solver not in ("ipopt", "sqp"):
             raise ValueError(f"nmpc.solver must be 'ipopt' or 'sqp', got {self.solver!r}")
         if self.fallback_solver not in ("ipopt", "sqp", None):

@@ -5,8 +5,10 @@ driven forward (out of the space). Pure pursuit steers the vehicle's rear axle
 towards the point of the line one look-ahead distance away:
 delta_f = atan(2 L sin(alpha) / l_d), alpha the bearing of that point seen from the
 vehicle heading. The trailer is ignored by the controller (it follows, stably,
-in forward motion). The stage ends when the hitch angle is under a threshold and
-the trailer axle is farther than a threshold from the goal along the line.
+in forward motion); its steer is capped so that the hitch angle cannot reach the
+jackknife limit going forward (:func:`forward_steer_limit`). The stage ends when
+the hitch angle is under a threshold and the trailer axle is farther than a
+threshold from the goal along the line.
 """
 
 from __future__ import annotations
@@ -16,11 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..checks import check_range
+from ..model.geometry import Pose, to_goal_frame, wrap_angle
 from ..model.kinematics import rear_axle_pose
 from ..model.vehicle import VehicleTrailer
-from .nmpc import Pose, to_goal_frame
 
-__all__ = ["PurePursuitSettings", "forward_done", "pure_pursuit_steer"]
+__all__ = ["PurePursuitSettings", "forward_done", "forward_steer_limit", "pure_pursuit_steer"]
 
 
 @dataclass(frozen=True)
@@ -50,7 +53,7 @@ class PurePursuitSettings:
     hitch_threshold: float = math.radians(1.0)
     distance_threshold: float = 8.0
     orientation_threshold: float = math.radians(1.0)
-    max_distance: float = 40.0
+    max_distance: float = 100.0
 
     def __post_init__(self) -> None:
         for name in (
@@ -61,23 +64,40 @@ class PurePursuitSettings:
             "orientation_threshold",
             "max_distance",
         ):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"forward.{name} must be a finite number > 0, got {v!r}")
+            object.__setattr__(self, name, check_range(f"forward.{name}", getattr(self, name), 0.0, low_open=True))
+
+
+def forward_steer_limit(vehicle: VehicleTrailer, margin: float = math.radians(1.0)) -> float:
+    """Largest forward steer [rad] whose steady hitch angle stays ``margin`` inside ``max_hitch``.
+
+    Driving forward with a held steer delta, the hitch angle settles where the
+    trailer turns as fast as the vehicle (Eq. 21 = Eq. 24):
+    tan(delta) = sin(h) / (L_T / L + (L_H / L) cos(h)). At h = max_hitch - margin, with
+    |delta| no larger than this, the hitch rate points back inwards, so a forward
+    stage can never jackknife. Within ``max_steer``.
+    """
+    h = max(vehicle.max_hitch - margin, 0.5 * vehicle.max_hitch)
+    L, L_H, L_T = vehicle.wheelbase, vehicle.hitch_offset, vehicle.trailer_length
+    return min(vehicle.max_steer, math.atan(math.sin(h) / (L_T / L + L_H / L * math.cos(h))))
 
 
 def pure_pursuit_steer(vehicle: VehicleTrailer, goal: Pose, settings: PurePursuitSettings, state: np.ndarray) -> float:
-    """Front steer [rad] that pursues the goal line forward, clipped to the steer limit."""
+    """Front steer [rad] that pursues the goal line forward, within :func:`forward_steer_limit`."""
     x_r, y_r, yaw_v = rear_axle_pose(vehicle, *state)
     _, gy, gyaw = to_goal_frame(goal, x_r, y_r, yaw_v)
     ld = settings.lookahead
     # Look-ahead point on the line y = 0, ld from the rear axle, ahead of it; the foot of the
     # perpendicular if the line is farther than ld.
     dx = math.sqrt(max(ld * ld - gy * gy, 0.0))
-    alpha = math.atan2(-gy, dx) - float(gyaw)
-    alpha = (alpha + math.pi) % (2 * math.pi) - math.pi
-    steer = math.atan(2.0 * vehicle.wheelbase * math.sin(alpha) / ld)
-    return float(np.clip(steer, -vehicle.max_steer, vehicle.max_steer))
+    distance = math.hypot(dx, float(gy))
+    alpha = float(wrap_angle(math.atan2(-gy, dx) - float(gyaw)))
+    limit = forward_steer_limit(vehicle)
+    if abs(alpha) > math.pi / 2:
+        # The point is behind the vehicle (it faces away from the line's direction): full lock towards it,
+        # where sin(alpha) would fade to zero and drive straight on.
+        return math.copysign(limit, alpha)
+    steer = math.atan(2.0 * vehicle.wheelbase * math.sin(alpha) / distance)
+    return float(np.clip(steer, -limit, limit))
 
 
 def forward_done(goal: Pose, settings: PurePursuitSettings, state: np.ndarray) -> bool:

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import check_int, check_range
 from ..control.nmpc import Pose, TrailerNMPC, to_goal_frame
 from ..control.ocp import NMPCSettings
 from ..control.pure_pursuit import PurePursuitSettings, forward_done, pure_pursuit_steer
@@ -52,11 +53,8 @@ class SuccessCriteria:
 
     def __post_init__(self) -> None:
         for name in ("distance", "orientation", "hitch", "max_time"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"success.{name} must be a finite number > 0, got {v!r}")
-        if isinstance(self.max_stages, bool) or not isinstance(self.max_stages, int) or self.max_stages < 1:
-            raise ValueError(f"success.max_stages must be an integer >= 1, got {self.max_stages!r}")
+            object.__setattr__(self, name, check_range(f"success.{name}", getattr(self, name), 0.0, low_open=True))
+        object.__setattr__(self, "max_stages", check_int("success.max_stages", self.max_stages, 1, 1000))
 
 
 @dataclass(frozen=True)
@@ -236,6 +234,8 @@ def park(
     ok_crit, nmpc_s, fwd = settings.success, settings.nmpc, settings.forward
     dt = nmpc_s.dt
     nmpc = controller or TrailerNMPC(vehicle, nmpc_s, goal)
+    if (nmpc.vehicle, nmpc.goal, nmpc.settings) != (vehicle, goal, nmpc_s):
+        raise ValueError("controller was built for another vehicle, goal or NMPC settings than this maneuver")
     rec = _Recorder()
     stages: list[StageResult] = []
     state = start.as_array()

@@ -32,6 +32,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from ..checks import check_number
 from ..control.nmpc import Pose
 from ..control.ocp import NMPCSettings
 from ..control.pure_pursuit import PurePursuitSettings
@@ -69,9 +70,7 @@ def _table(data: dict[str, Any], key: str) -> dict[str, Any]:
 
 
 def _number(table: str, key: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ValueError(f"{table}.{key} must be a finite number, got {value!r}")
-    return float(value)
+    return check_number(f"{table}.{key}", value)
 
 
 def _pose_fields(table: str, data: dict[str, Any], keys: tuple[str, ...], required: bool) -> dict[str, float]:

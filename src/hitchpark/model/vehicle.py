@@ -3,42 +3,14 @@
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from ..checks import check_range
 from ..io import read_toml
 
 __all__ = ["VehicleTrailer", "load_vehicle", "vehicle_from_dict"]
-
-
-def _check_finite(name: str, value: Any) -> float:
-    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{name} must be a number, got {value!r}")
-    value = float(value)
-    if not math.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value}")
-    return value
-
-
-def _check_positive(name: str, value: Any, unit: str = "m") -> float:
-    value = _check_finite(name, value)
-    if value <= 0.0:
-        raise ValueError(f"{name} must be > 0 {unit}, got {value:g}")
-    return value
-
-
-def _check_angle(name: str, value: Any, upper_deg: float) -> float:
-    value = _check_finite(name, value)
-    if not 0.0 < value < math.radians(upper_deg):
-        raise ValueError(
-            f"{name} must be in (0, {math.radians(upper_deg):.6g}) rad, i.e. (0, {upper_deg:g}) deg, "
-            f"got {value:g} rad ({math.degrees(value):g} deg)"
-        )
-    return value
 
 
 @dataclass(frozen=True)
@@ -86,6 +58,9 @@ class VehicleTrailer:
     trailer_width: float = 1.8
 
     def __post_init__(self) -> None:
+        def put(name: str, value: float) -> None:
+            object.__setattr__(self, name, value)
+
         for name in (
             "wheelbase",
             "trailer_length",
@@ -96,13 +71,15 @@ class VehicleTrailer:
             "trailer_rear",
             "trailer_width",
         ):
-            object.__setattr__(self, name, _check_positive(name, getattr(self, name)))
-        hitch = _check_finite("hitch_offset", self.hitch_offset)
-        if hitch < 0.0:
-            raise ValueError(f"hitch_offset must be >= 0 m (hitch behind the rear axle), got {hitch:g}")
-        object.__setattr__(self, "hitch_offset", hitch)
-        object.__setattr__(self, "max_steer", _check_angle("max_steer", self.max_steer, 90.0))
-        object.__setattr__(self, "max_hitch", _check_angle("max_hitch", self.max_hitch, 90.0))
+            put(name, check_range(name, getattr(self, name), 0.0, low_open=True, unit="m"))
+        put("hitch_offset", check_range("hitch_offset", self.hitch_offset, 0.0, unit="m (hitch behind the rear axle)"))
+        for name in ("max_steer", "max_hitch"):
+            put(
+                name,
+                check_range(
+                    name, getattr(self, name), 0.0, math.pi / 2, low_open=True, high_open=True, unit="rad (0 to 90 deg)"
+                ),
+            )
         if self.trailer_front >= self.trailer_length:
             raise ValueError(
                 f"trailer_front must be < trailer_length ({self.trailer_length:g} m): "
@@ -116,10 +93,6 @@ class VehicleTrailer:
                 "hitch_offset must be > 0 m for the inverse kinematics (Eq. 45 divides by L_H); "
                 f"got {self.hitch_offset:g}"
             )
-
-    def with_(self, **changes: Any) -> VehicleTrailer:
-        """Return a copy with some fields changed (checked again)."""
-        return replace(self, **changes)
 
     def to_dict(self) -> dict[str, float]:
         return asdict(self)

@@ -20,9 +20,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..control.nmpc import Pose, to_goal_frame
+from ..model.geometry import along, body_outlines, parking_space, to_goal_frame, wheel_outlines
 from ..model.inverse import virtual_steer_bounds
-from ..model.kinematics import hitch_point, rear_axle_pose
 from . import use_headless_backend
 
 if TYPE_CHECKING:
@@ -30,7 +29,6 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
     from ..maneuver.process import ManeuverResult
-    from ..model.vehicle import VehicleTrailer
 
 __all__ = [
     "STAGE_COLORS",
@@ -51,135 +49,6 @@ _WHEEL_COLOR = "#303030"
 
 # Mathtext symbols used in labels.
 _DF, _DPSI, _EPSI = r"$\delta_f$", r"$\Delta\psi$", r"$e_\psi$"
-
-#: Wheel footprint used for drawing [m]: length (tyre diameter) and width.
-_WHEEL_LENGTH, _WHEEL_WIDTH = 0.68, 0.24
-
-
-# --------------------------------------------------------------------------- geometry
-
-
-def _rectangle(x: float, y: float, yaw: float, back: float, front: float, half_width: float) -> np.ndarray:
-    """Closed 5x2 polygon of a rectangle in a frame at (x, y, yaw): from ``-back`` to ``front`` along it."""
-    local = np.array(
-        [
-            [-back, -half_width],
-            [front, -half_width],
-            [front, half_width],
-            [-back, half_width],
-            [-back, -half_width],
-        ]
-    )
-    c, s = math.cos(yaw), math.sin(yaw)
-    rot = np.array([[c, -s], [s, c]])
-    return local @ rot.T + np.array([x, y])
-
-
-def _along(x: float, y: float, yaw: float, distance: float, lateral: float = 0.0) -> np.ndarray:
-    """The point ``distance`` ahead of and ``lateral`` left of (x, y) in a frame with heading ``yaw``."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([x + distance * c - lateral * s, y + distance * s + lateral * c])
-
-
-def body_outlines(
-    vehicle: VehicleTrailer, x_trailer: float, y_trailer: float, yaw_trailer: float, hitch: float
-) -> dict[str, np.ndarray]:
-    """Outlines of the vehicle and trailer bodies for one configuration, in the world frame.
-
-    Parameters
-    ----------
-    vehicle : VehicleTrailer
-        Kinematic lengths and body dimensions.
-    x_trailer, y_trailer : float
-        Trailer-axle centre [m].
-    yaw_trailer : float
-        Trailer heading [rad].
-    hitch : float
-        Hitch angle, vehicle yaw minus trailer yaw [rad].
-
-    Returns
-    -------
-    dict of str to numpy.ndarray
-        ``"vehicle"``, ``"trailer"``: closed polygons, 5x2 arrays (first row repeated
-        last), counter-clockwise. The vehicle body spans ``rear_overhang`` behind the
-        rear axle to ``wheelbase + front_overhang`` ahead of it, ``vehicle_width`` wide;
-        the trailer body spans ``trailer_rear`` behind the trailer axle to
-        ``trailer_front`` ahead of it, ``trailer_width`` wide.
-        ``"drawbar"``: 2x2 segment from the centre of the trailer body front to the hitch.
-        ``"tow_bar"``: 2x2 segment from the centre of the vehicle body rear to the hitch
-        (zero length when the hitch lies under the vehicle body).
-        ``"hitch"``: the hitch point, shape (2,).
-        ``"rear_axle"``, ``"trailer_axle"``: the axle centres, shape (2,).
-    """
-    x_t, y_t, yaw_t, d_psi = float(x_trailer), float(y_trailer), float(yaw_trailer), float(hitch)
-    x_h, y_h = hitch_point(vehicle, x_t, y_t, yaw_t)  # Eqs. (25)-(26)
-    x_r, y_r, yaw_v = rear_axle_pose(vehicle, x_t, y_t, yaw_t, d_psi)  # Eqs. (27)-(28)
-    x_r, y_r, yaw_v = float(x_r), float(y_r), float(yaw_v)
-    hitch_xy = np.array([float(x_h), float(y_h)])
-    vehicle_body = _rectangle(
-        x_r,
-        y_r,
-        yaw_v,
-        vehicle.rear_overhang,
-        vehicle.wheelbase + vehicle.front_overhang,
-        vehicle.vehicle_width / 2,
-    )
-    trailer_body = _rectangle(x_t, y_t, yaw_t, vehicle.trailer_rear, vehicle.trailer_front, vehicle.trailer_width / 2)
-    trailer_nose = _along(x_t, y_t, yaw_t, vehicle.trailer_front)
-    bumper = _along(x_r, y_r, yaw_v, -min(vehicle.rear_overhang, vehicle.hitch_offset))
-    return {
-        "vehicle": vehicle_body,
-        "trailer": trailer_body,
-        "drawbar": np.vstack([trailer_nose, hitch_xy]),
-        "tow_bar": np.vstack([bumper, hitch_xy]),
-        "hitch": hitch_xy,
-        "rear_axle": np.array([x_r, y_r]),
-        "trailer_axle": np.array([x_t, y_t]),
-    }
-
-
-def wheel_outlines(
-    vehicle: VehicleTrailer,
-    x_trailer: float,
-    y_trailer: float,
-    yaw_trailer: float,
-    hitch: float,
-    front_steer: float = 0.0,
-) -> np.ndarray:
-    """Tyre footprints for drawing: an array (6, 5, 2) of closed polygons, world frame.
-
-    Rows: rear-right, rear-left, front-right, front-left (turned by ``front_steer``
-    [rad]), trailer-right, trailer-left. The tracks are the body widths less a tyre
-    width; the tyre size is a fixed 0.68 m x 0.24 m, shrunk for very small vehicles.
-    """
-    x_t, y_t, yaw_t = float(x_trailer), float(y_trailer), float(yaw_trailer)
-    x_r, y_r, yaw_v = (float(v) for v in rear_axle_pose(vehicle, x_t, y_t, yaw_t, float(hitch)))
-    length = min(_WHEEL_LENGTH, 0.3 * vehicle.wheelbase, 0.3 * vehicle.trailer_length)
-    width = min(_WHEEL_WIDTH, 0.2 * vehicle.vehicle_width, 0.2 * vehicle.trailer_width)
-    half_v = (vehicle.vehicle_width - width) / 2
-    half_t = (vehicle.trailer_width - width) / 2
-    centres = [
-        (_along(x_r, y_r, yaw_v, 0.0, -half_v), yaw_v),
-        (_along(x_r, y_r, yaw_v, 0.0, half_v), yaw_v),
-        (_along(x_r, y_r, yaw_v, vehicle.wheelbase, -half_v), yaw_v + front_steer),
-        (_along(x_r, y_r, yaw_v, vehicle.wheelbase, half_v), yaw_v + front_steer),
-        (_along(x_t, y_t, yaw_t, 0.0, -half_t), yaw_t),
-        (_along(x_t, y_t, yaw_t, 0.0, half_t), yaw_t),
-    ]
-    return np.stack([_rectangle(c[0], c[1], yaw, length / 2, length / 2, width / 2) for c, yaw in centres])
-
-
-def parking_space(vehicle: VehicleTrailer, goal: Pose, margin: float = 0.35) -> np.ndarray:
-    """The parking space: the trailer footprint at ``goal`` grown by ``margin`` [m]; closed 5x2 polygon."""
-    return _rectangle(
-        goal.x,
-        goal.y,
-        goal.yaw,
-        vehicle.trailer_rear + margin,
-        vehicle.trailer_front + margin,
-        vehicle.trailer_width / 2 + margin,
-    )
-
 
 # --------------------------------------------------------------------------- helpers
 
@@ -336,7 +205,7 @@ def _draw_goal(ax: Axes, result: ManeuverResult) -> None:
         )
     )
     arrow = 0.5 * (v.trailer_front + v.trailer_rear)
-    tip = _along(goal.x, goal.y, goal.yaw, arrow)
+    tip = along(goal.x, goal.y, goal.yaw, arrow)
     ax.annotate(
         "",
         xy=tuple(tip),

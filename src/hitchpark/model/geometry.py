@@ -1,0 +1,197 @@
+"""Planar geometry: poses, the parking frame, and the outlines of the bodies.
+
+Pure NumPy. The outlines serve drawing now and collision checks later; the
+parking frame (Fig. 5) has its origin at the goal trailer-axle position and its
+x axis along the goal heading.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..checks import MAX_COORDINATE, MAX_YAW, check_range
+from .kinematics import hitch_point, rear_axle_pose
+from .vehicle import VehicleTrailer
+
+__all__ = [
+    "Pose",
+    "along",
+    "body_outlines",
+    "check_pose",
+    "parking_space",
+    "rectangle",
+    "to_goal_frame",
+    "wheel_outlines",
+    "wrap_angle",
+]
+
+
+def wrap_angle(a: Any) -> Any:
+    """Angle(s) wrapped to [-pi, pi)."""
+    r = (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
+    return np.where(r >= np.pi, r - 2 * np.pi, r)  # the modulo can round up to 2 pi
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A planar pose in the world frame [m, m, rad]; the goal is the trailer-axle pose when parked."""
+
+    x: float = 0.0
+    y: float = 0.0
+    yaw: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_pose("goal", self.x, self.y, self.yaw)
+        for name in ("x", "y", "yaw"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+
+    def to_dict(self) -> dict[str, float]:
+        return {"x": self.x, "y": self.y, "yaw_deg": math.degrees(self.yaw)}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Pose:
+        return cls(float(data["x"]), float(data["y"]), math.radians(data["yaw_deg"]))
+
+
+def check_pose(what: str, x: Any, y: Any, yaw: Any) -> None:
+    """Raise ``ValueError`` unless x, y are finite within +-MAX_COORDINATE m and yaw within +-MAX_YAW rad."""
+    for name, value in (("x", x), ("y", y)):
+        check_range(f"{what} {name}", value, -MAX_COORDINATE, MAX_COORDINATE, unit="m")
+    check_range(f"{what} yaw", yaw, -MAX_YAW, MAX_YAW, unit=f"rad ({math.degrees(MAX_YAW):g} deg)")
+
+
+def to_goal_frame(goal: Pose, x: Any, y: Any, yaw: Any) -> tuple[Any, Any, Any]:
+    """World pose(s) -> parking frame of ``goal`` (Fig. 5): origin at the goal, X along its heading."""
+    c, s = math.cos(goal.yaw), math.sin(goal.yaw)
+    dx, dy = np.asarray(x) - goal.x, np.asarray(y) - goal.y
+    return c * dx + s * dy, -s * dx + c * dy, wrap_angle(np.asarray(yaw) - goal.yaw)
+
+
+#: Wheel footprint used for drawing [m]: length (tyre diameter) and width.
+_WHEEL_LENGTH, _WHEEL_WIDTH = 0.68, 0.24
+
+
+def rectangle(x: float, y: float, yaw: float, back: float, front: float, half_width: float) -> np.ndarray:
+    """Closed 5x2 polygon of a rectangle in a frame at (x, y, yaw): from ``-back`` to ``front`` along it."""
+    local = np.array(
+        [
+            [-back, -half_width],
+            [front, -half_width],
+            [front, half_width],
+            [-back, half_width],
+            [-back, -half_width],
+        ]
+    )
+    c, s = math.cos(yaw), math.sin(yaw)
+    rot = np.array([[c, -s], [s, c]])
+    return local @ rot.T + np.array([x, y])
+
+
+def along(x: float, y: float, yaw: float, distance: float, lateral: float = 0.0) -> np.ndarray:
+    """The point ``distance`` ahead of and ``lateral`` left of (x, y) in a frame with heading ``yaw``."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([x + distance * c - lateral * s, y + distance * s + lateral * c])
+
+
+def body_outlines(
+    vehicle: VehicleTrailer, x_trailer: float, y_trailer: float, yaw_trailer: float, hitch: float
+) -> dict[str, np.ndarray]:
+    """Outlines of the vehicle and trailer bodies for one configuration, in the world frame.
+
+    Parameters
+    ----------
+    vehicle : VehicleTrailer
+        Kinematic lengths and body dimensions.
+    x_trailer, y_trailer : float
+        Trailer-axle centre [m].
+    yaw_trailer : float
+        Trailer heading [rad].
+    hitch : float
+        Hitch angle, vehicle yaw minus trailer yaw [rad].
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``"vehicle"``, ``"trailer"``: closed polygons, 5x2 arrays (first row repeated
+        last), counter-clockwise. The vehicle body spans ``rear_overhang`` behind the
+        rear axle to ``wheelbase + front_overhang`` ahead of it, ``vehicle_width`` wide;
+        the trailer body spans ``trailer_rear`` behind the trailer axle to
+        ``trailer_front`` ahead of it, ``trailer_width`` wide.
+        ``"drawbar"``: 2x2 segment from the centre of the trailer body front to the hitch.
+        ``"tow_bar"``: 2x2 segment from the centre of the vehicle body rear to the hitch
+        (zero length when the hitch lies under the vehicle body).
+        ``"hitch"``: the hitch point, shape (2,).
+        ``"rear_axle"``, ``"trailer_axle"``: the axle centres, shape (2,).
+    """
+    x_t, y_t, yaw_t, d_psi = float(x_trailer), float(y_trailer), float(yaw_trailer), float(hitch)
+    x_h, y_h = hitch_point(vehicle, x_t, y_t, yaw_t)  # Eqs. (25)-(26)
+    x_r, y_r, yaw_v = rear_axle_pose(vehicle, x_t, y_t, yaw_t, d_psi)  # Eqs. (27)-(28)
+    x_r, y_r, yaw_v = float(x_r), float(y_r), float(yaw_v)
+    hitch_xy = np.array([float(x_h), float(y_h)])
+    vehicle_body = rectangle(
+        x_r,
+        y_r,
+        yaw_v,
+        vehicle.rear_overhang,
+        vehicle.wheelbase + vehicle.front_overhang,
+        vehicle.vehicle_width / 2,
+    )
+    trailer_body = rectangle(x_t, y_t, yaw_t, vehicle.trailer_rear, vehicle.trailer_front, vehicle.trailer_width / 2)
+    trailer_nose = along(x_t, y_t, yaw_t, vehicle.trailer_front)
+    bumper = along(x_r, y_r, yaw_v, -min(vehicle.rear_overhang, vehicle.hitch_offset))
+    return {
+        "vehicle": vehicle_body,
+        "trailer": trailer_body,
+        "drawbar": np.vstack([trailer_nose, hitch_xy]),
+        "tow_bar": np.vstack([bumper, hitch_xy]),
+        "hitch": hitch_xy,
+        "rear_axle": np.array([x_r, y_r]),
+        "trailer_axle": np.array([x_t, y_t]),
+    }
+
+
+def wheel_outlines(
+    vehicle: VehicleTrailer,
+    x_trailer: float,
+    y_trailer: float,
+    yaw_trailer: float,
+    hitch: float,
+    front_steer: float = 0.0,
+) -> np.ndarray:
+    """Tyre footprints for drawing: an array (6, 5, 2) of closed polygons, world frame.
+
+    Rows: rear-right, rear-left, front-right, front-left (turned by ``front_steer``
+    [rad]), trailer-right, trailer-left. The tracks are the body widths less a tyre
+    width; the tyre size is a fixed 0.68 m x 0.24 m, shrunk for very small vehicles.
+    """
+    x_t, y_t, yaw_t = float(x_trailer), float(y_trailer), float(yaw_trailer)
+    x_r, y_r, yaw_v = (float(v) for v in rear_axle_pose(vehicle, x_t, y_t, yaw_t, float(hitch)))
+    length = min(_WHEEL_LENGTH, 0.3 * vehicle.wheelbase, 0.3 * vehicle.trailer_length)
+    width = min(_WHEEL_WIDTH, 0.2 * vehicle.vehicle_width, 0.2 * vehicle.trailer_width)
+    half_v = (vehicle.vehicle_width - width) / 2
+    half_t = (vehicle.trailer_width - width) / 2
+    centres = [
+        (along(x_r, y_r, yaw_v, 0.0, -half_v), yaw_v),
+        (along(x_r, y_r, yaw_v, 0.0, half_v), yaw_v),
+        (along(x_r, y_r, yaw_v, vehicle.wheelbase, -half_v), yaw_v + front_steer),
+        (along(x_r, y_r, yaw_v, vehicle.wheelbase, half_v), yaw_v + front_steer),
+        (along(x_t, y_t, yaw_t, 0.0, -half_t), yaw_t),
+        (along(x_t, y_t, yaw_t, 0.0, half_t), yaw_t),
+    ]
+    return np.stack([rectangle(c[0], c[1], yaw, length / 2, length / 2, width / 2) for c, yaw in centres])
+
+
+def parking_space(vehicle: VehicleTrailer, goal: Pose, margin: float = 0.35) -> np.ndarray:
+    """The parking space: the trailer footprint at ``goal`` grown by ``margin`` [m]; closed 5x2 polygon."""
+    return rectangle(
+        goal.x,
+        goal.y,
+        goal.yaw,
+        vehicle.trailer_rear + margin,
+        vehicle.trailer_front + margin,
+        vehicle.trailer_width / 2 + margin,
+    )
