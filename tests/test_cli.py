@@ -212,7 +212,7 @@ def test_ik_study_out_is_a_file_is_a_clean_error(tmp_path, capsys):
     target = tmp_path / "f"
     target.write_text("keep")
     assert run(["ik-study", "--out", str(target), "--no-plots"]) == EXIT_BAD_INPUT
-    assert "cannot write" in one_error_line(capsys.readouterr().err)
+    assert "not a folder" in one_error_line(capsys.readouterr().err)
     assert target.read_text() == "keep"
 
 

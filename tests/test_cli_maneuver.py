@@ -291,3 +291,64 @@ def test_plot_binary_file_names_the_file(tmp_path, capsys):
     path.write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00")
     assert run(["plot", str(path), "--no-animation"]) == EXIT_BAD_INPUT
     assert "picture.json" in one_error_line(capsys.readouterr().err)
+
+
+def test_reproduce_leaves_nothing_half_written(tmp_path, capsys):
+    """A clash inside --out is found before anything is published: the folder stays as it was."""
+    out = tmp_path / "rep"
+    out.mkdir()
+    (out / BUILTIN_ORDER[2]).write_text("a file where a scenario folder goes")
+    assert run(["reproduce", "--out", str(out), "--no-plots"]) == EXIT_BAD_INPUT
+    assert "in the way" in one_error_line(capsys.readouterr().err)
+    assert [p.name for p in out.iterdir()] == [BUILTIN_ORDER[2]]
+
+
+def test_park_out_is_a_file(tmp_path, capsys):
+    target = tmp_path / "file"
+    target.write_text("keep")
+    assert run(["park", "--start", "10,3.5,0,0", "--out", str(target), "--no-plots"]) == EXIT_BAD_INPUT
+    assert "not a folder" in one_error_line(capsys.readouterr().err)
+    assert target.read_text() == "keep"
+
+
+@pytest.mark.parametrize(
+    ("argv", "problem"),
+    [
+        (["simulate", "--start", "0,0,0,0", "--speed", "-1", "--steer", "10", "--duration", "1e308"], "steps"),
+        (
+            ["simulate", "--start", "0,0,0,0", "--speed", "-1", "--steer", "10", "--duration", "1", "--dt", "1e-320"],
+            "dt",
+        ),
+        (["simulate", "--start", "0,0,0,0", "--speed", "1e308", "--steer", "10", "--duration", "1"], "speed"),
+        (["simulate", "--start", "1e300,0,0,0", "--speed", "-1", "--steer", "10", "--duration", "1"], "start x"),
+        (["simulate", "--start", "0,0,1e300,0", "--speed", "-1", "--steer", "10", "--duration", "1"], "start yaw"),
+    ],
+)
+def test_simulate_huge_inputs(tmp_path, capsys, argv, problem):
+    out = tmp_path / "run.json"
+    assert run([*argv, "--json", str(out)]) == EXIT_BAD_INPUT
+    assert problem in one_error_line(capsys.readouterr().err)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("extra", "problem"), [(["--goal", "0,0,1e308"], "goal yaw"), (["--start", "1e300,0,0,0"], "x")]
+)
+def test_park_huge_inputs(tmp_path, capsys, extra, problem):
+    argv = ["park", "--start", "10,3.5,0,0", *extra, "--out", str(tmp_path / "out"), "--no-plots"]
+    assert run(argv) == EXIT_BAD_INPUT
+    assert problem in one_error_line(capsys.readouterr().err)
+    assert not (tmp_path / "out").exists()
+
+
+def test_ik_study_zero_speed(tmp_path, capsys):
+    assert run(["ik-study", "--out", str(tmp_path / "ik"), "--speed", "0", "--no-plots"]) == EXIT_BAD_INPUT
+    assert "speed" in one_error_line(capsys.readouterr().err)
+    assert not (tmp_path / "ik").exists()
+
+
+def test_scenario_name_must_be_a_plain_folder_name(tmp_path, capsys):
+    path = tmp_path / "evil.toml"
+    path.write_text('name = "../escape"\n[start]\nx = 10.0\ny = 3.5\nyaw_deg = 0.0\nhitch_deg = 0.0\n')
+    assert run(["park", "--scenario", str(path), "--out", str(tmp_path / "out"), "--no-plots"]) == EXIT_BAD_INPUT
+    assert "name" in one_error_line(capsys.readouterr().err)

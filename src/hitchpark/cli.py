@@ -12,7 +12,7 @@ from typing import Any, NoReturn
 
 from .control.nmpc import Pose
 from .model.vehicle import VehicleTrailer, load_vehicle, vehicle_from_dict
-from .sim import State, check_state
+from .sim import State
 
 _VEHICLE_OVERRIDES = ("wheelbase", "hitch_offset", "trailer_length")
 
@@ -69,9 +69,9 @@ def _add_vehicle_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def vehicle_from_args(args: argparse.Namespace) -> VehicleTrailer:
-    """The vehicle file (or ``args.vehicle_base``, or Table 4) with the command-line overrides on top."""
-    base = load_vehicle(args.vehicle) if args.vehicle is not None else getattr(args, "vehicle_base", VehicleTrailer())
+def vehicle_from_args(args: argparse.Namespace, default: VehicleTrailer | None = None) -> VehicleTrailer:
+    """The vehicle file (else ``default``, else Table 4) with the command-line overrides on top."""
+    base = load_vehicle(args.vehicle) if args.vehicle is not None else (default or VehicleTrailer())
     overrides = {name: getattr(args, name) for name in _VEHICLE_OVERRIDES if getattr(args, name) is not None}
     return vehicle_from_dict(overrides, base) if overrides else base
 
@@ -101,21 +101,24 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def _cmd_ik_study(args: argparse.Namespace) -> int:
-    from .io import write_json
+    from .io import StagedFolder, write_json
     from .studies import TABLE2_VEHICLE, inverse_kinematics_study
 
+    staged = StagedFolder(args.out)
     result = inverse_kinematics_study(TABLE2_VEHICLE, rear_speed=_finite("--speed", args.speed))
-    out: Path = args.out
-    write_json(out / "ik_study.json", result.to_dict())
+    with staged as stage:
+        write_json(stage / "ik_study.json", result.to_dict())
+        if not args.no_plots:
+            from .viz.ik import plot_ik_study
+
+            plot_ik_study(result, stage / "ik_study.png")
     print(
         f"inverse kinematics study (Table 2): max |actual - desired virtual steer| = {result.max_steer_error:.3e} rad, "
         f"max trailer gap full vs trailer-only model = {result.max_pose_error:.3e} m"
     )
     if not args.no_plots:
-        from .viz.ik import plot_ik_study
-
-        print(f"figure: {plot_ik_study(result, out / 'ik_study.png')}")
-    print(f"data: {out / 'ik_study.json'}")
+        print(f"figure: {args.out / 'ik_study.png'}")
+    print(f"data: {args.out / 'ik_study.json'}")
     return 0
 
 
@@ -140,6 +143,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 def _cmd_park(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
+    from .io import StagedFolder
     from .maneuver.report import save_maneuver, summary_entry, table5
     from .maneuver.scenario import Scenario, load_scenario
 
@@ -151,19 +155,16 @@ def _cmd_park(args: argparse.Namespace) -> int:
         changes["start"] = parse_start(args.start)
     if args.goal is not None:
         changes["goal"] = parse_goal(args.goal)
-    if args.vehicle is not None or any(getattr(args, n) is not None for n in _VEHICLE_OVERRIDES):
-        if args.vehicle is None:
-            args.vehicle_base = sc.vehicle
-        changes["vehicle"] = vehicle_from_args(args)
+    changes["vehicle"] = vehicle_from_args(args, default=sc.vehicle)
     sc = replace(sc, **changes)
-    sc.vehicle.require_hitch_offset()
-    check_state(sc.vehicle, sc.start)
+    staged = StagedFolder(args.out)  # an --out that is a file fails here, before the maneuver runs
 
     from .maneuver.process import park
 
-    result = park(sc.vehicle, sc.start, sc.goal, sc.settings, name=sc.name)
+    result = park(sc.vehicle, sc.start, sc.goal, sc.settings, name=sc.name)  # checks vehicle and start
     plots = not args.no_plots
-    files = save_maneuver(result, args.out, plots=plots, animation=plots)
+    with staged as stage:
+        files = {k: args.out / p.relative_to(stage) for k, p in save_maneuver(result, stage, plots, plots).items()}
     entry = summary_entry(result, "maneuver.json")
     print(table5([result]))
     print(
@@ -177,9 +178,9 @@ def _cmd_park(args: argparse.Namespace) -> int:
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
-    from .io import read_json
+    from .io import StagedFolder, read_json
     from .maneuver.process import ManeuverResult
-    from .viz.maneuver import animate_maneuver, plot_maneuver
+    from .maneuver.report import render_maneuver
 
     try:
         data = read_json(args.maneuver)
@@ -191,10 +192,10 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     except (KeyError, TypeError, AttributeError, ValueError) as exc:
         raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON ({type(exc).__name__}: {exc})") from None
     out = args.out if args.out is not None else args.maneuver.parent
-    for path in plot_maneuver(result, out):
-        print(f"figure: {path}")
-    if not args.no_animation:
-        print(f"animation: {animate_maneuver(result, out / 'maneuver.gif')}")
+    with StagedFolder(out) as stage:
+        files = render_maneuver(result, stage, plots=True, animation=not args.no_animation)
+    for name, path in files.items():
+        print(f"{name}: {out / path.relative_to(stage)}")
     return 0
 
 

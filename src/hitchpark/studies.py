@@ -12,7 +12,7 @@ from .model.integrate import rk4
 from .model.inverse import actual_virtual_steer, front_steer_from_virtual, trailer_speed_from_virtual
 from .model.kinematics import full_rhs, trailer_rhs
 from .model.vehicle import VehicleTrailer
-from .sim import Trajectory
+from .sim import MAX_SPEED, Trajectory
 
 __all__ = ["TABLE2_VEHICLE", "IKStudyResult", "default_virtual_profile", "inverse_kinematics_study"]
 
@@ -76,6 +76,8 @@ def inverse_kinematics_study(
     both must move the trailer identically. The record has ``round(duration / dt)`` steps of ``dt``.
     """
     vehicle.require_hitch_offset()
+    if rear_speed == 0 or not abs(rear_speed) <= MAX_SPEED:
+        raise ValueError(f"rear speed must be non-zero and within +-{MAX_SPEED:g} m/s, got {rear_speed:g}")
 
     def rhs(z: np.ndarray) -> np.ndarray:
         t, full, trailer = z[0], z[1:5], z[5:8]

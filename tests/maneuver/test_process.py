@@ -16,6 +16,7 @@ from make_reference import builtin_results
 
 from hitchpark.control import NMPCSettings, Pose, TrailerNMPC, to_goal_frame
 from hitchpark.control.pure_pursuit import PurePursuitSettings, pure_pursuit_steer
+from hitchpark.io import to_jsonable
 from hitchpark.maneuver import (
     MANEUVER_COLUMNS,
     ManeuverResult,
@@ -388,3 +389,51 @@ def test_json_round_trip(name, results):
         assert np.allclose(list(vars(a).values()), list(vars(b).values()), rtol=0, atol=1e-15)
     assert back.duration == result.duration
     assert back.to_dict()["stages"] == result.to_dict()["stages"]
+
+
+# --- review fixes: limits, controller match, saved layouts ------------------------------------
+
+
+def test_reverse_stage_stops_before_a_jackknife():
+    """The NMPC does not know max_hitch; the plant step that would pass it is refused and the maneuver ends."""
+    vehicle = VehicleTrailer(max_hitch=math.radians(30.0))
+    result = park(vehicle, State(10.0, 3.5, 0.0, 0.0))  # unlimited, this start bends to 38 deg in stage 1
+    assert not result.success and result.reason == "jackknife"
+    assert result.stages[-1].reason == "jackknife"
+    assert result.max_abs_hitch_deg <= 30.0
+    assert result.max_abs_hitch_deg > 28.0  # stopped at the limit, one step short of passing it
+    assert result.trajectory["rear_speed"][-1] == 0.0
+
+
+def test_nmpc_refuses_a_hitch_beyond_the_limit(table4):
+    step = TrailerNMPC(table4).step(5.0, 2.0, 0.0, math.radians(120.0))
+    assert not step.ok and "max_hitch" in step.status
+    assert step.rear_speed == 0.0 and math.isfinite(step.front_steer) and abs(step.front_steer) <= table4.max_steer
+
+
+def test_park_rejects_a_controller_built_for_another_goal(table4):
+    with pytest.raises(ValueError, match="controller"):
+        park(table4, State(15.0, 8.5, 0.0, 0.0), goal=Pose(5.0, 5.0, 0.0), controller=TrailerNMPC(table4))
+
+
+def _saved(results) -> dict:
+    return json.loads(json.dumps(to_jsonable(results["parallel"].to_dict())))
+
+
+@pytest.mark.parametrize(
+    ("spoil", "problem"),
+    [
+        (lambda d: d["stages"][0].update(first_row=10**9), "rows"),
+        (lambda d: d["stages"][1].update(last_row=-3), "rows"),
+        (lambda d: d["stages"][0].update(kind="sideways"), "kind"),
+        (lambda d: d["stages"].pop(), "stages end"),
+        (lambda d: d["trajectory"].pop("hitch"), "hitch"),
+        (lambda d: d.pop("goal"), "goal"),
+        (lambda d: d.update(stages=[]), "no rows or no stages"),
+    ],
+)
+def test_from_dict_rejects_a_broken_layout(results, spoil, problem):
+    data = _saved(results)
+    spoil(data)
+    with pytest.raises(ValueError, match=problem):
+        ManeuverResult.from_dict(data)

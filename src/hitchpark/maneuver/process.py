@@ -145,24 +145,55 @@ class ManeuverResult:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> ManeuverResult:
-        s = data.get("settings", {})
-        nmpc: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in s.get("nmpc", {}).items()}
-        settings = ManeuverSettings(
-            nmpc=NMPCSettings(**nmpc),
-            forward=PurePursuitSettings(**s.get("forward", {})),
-            success=SuccessCriteria(**s.get("success", {})),
-        )
-        return cls(
-            vehicle=vehicle_from_dict(data["vehicle"]),
-            start=State.from_dict(data["start"]),
-            goal=Pose.from_dict(data["goal"]),
-            settings=settings,
-            success=bool(data["success"]),
-            reason=str(data["reason"]),
-            stages=tuple(StageResult(**st) for st in data["stages"]),
-            trajectory=Trajectory.from_dict(data["trajectory"]),
-            name=str(data.get("name", "")),
-        )
+        """Rebuild a saved result; a malformed one is a ``ValueError`` that says what is wrong."""
+        try:
+            s = data.get("settings", {})
+            nmpc: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in s.get("nmpc", {}).items()}
+            settings = ManeuverSettings(
+                nmpc=NMPCSettings(**nmpc),
+                forward=PurePursuitSettings(**s.get("forward", {})),
+                success=SuccessCriteria(**s.get("success", {})),
+            )
+            result = cls(
+                vehicle=vehicle_from_dict(data["vehicle"]),
+                start=State.from_dict(data["start"]),
+                goal=Pose.from_dict(data["goal"]),
+                settings=settings,
+                success=bool(data["success"]),
+                reason=str(data["reason"]),
+                stages=tuple(StageResult(**st) for st in data["stages"]),
+                trajectory=Trajectory.from_dict(data["trajectory"]),
+                name=str(data.get("name", "")),
+            )
+        except KeyError as exc:
+            raise ValueError(f"maneuver data lacks {exc}") from None
+        except (TypeError, AttributeError) as exc:
+            raise ValueError(f"maneuver data is malformed: {exc}") from None
+        result._check_layout()
+        return result
+
+    def _check_layout(self) -> None:
+        """Stages must tile the trajectory: contiguous rows from 0 to the last, every column present."""
+        missing = [c for c in MANEUVER_COLUMNS if c not in self.trajectory]
+        if missing:
+            raise ValueError(f"maneuver trajectory lacks the column {missing[0]!r}")
+        n = len(self.trajectory)
+        if n < 1 or not self.stages:
+            raise ValueError("maneuver has no rows or no stages")
+        expected_first = 0
+        for i, st in enumerate(self.stages):
+            if st.kind not in ("reverse", "forward"):
+                raise ValueError(f"stage {i} kind must be 'reverse' or 'forward', got {st.kind!r}")
+            if not (isinstance(st.first_row, int) and isinstance(st.last_row, int)):
+                raise ValueError(f"stage {i} rows must be integers, got {st.first_row!r}, {st.last_row!r}")
+            if st.first_row != expected_first or not st.first_row <= st.last_row < n:
+                raise ValueError(
+                    f"stage {i} rows [{st.first_row}, {st.last_row}] do not follow on from row {expected_first} "
+                    f"within the {n} rows of the trajectory"
+                )
+            expected_first = st.last_row
+        if expected_first != n - 1:
+            raise ValueError(f"the stages end at row {expected_first}, the trajectory at row {n - 1}")
 
 
 class _Recorder:

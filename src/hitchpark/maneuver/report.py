@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ..io import write_json
+from ..io import StagedFolder, write_json
 from .process import ManeuverResult, park
 from .scenario import Scenario, builtin_scenarios
 
@@ -138,20 +138,22 @@ def reproduce(
     """Run the scenarios (default: the paper's four), save each, and write ``out/summary.json``.
 
     Returns the results and the path of the summary. Each scenario's files go to
-    ``out/<name>/``; ``summary.json`` is written last, so it only ever describes
-    results that are on disk. Figures and animations, the slow part, are drawn in
-    ``workers`` processes (default: one per core, at most one per scenario).
+    ``out/<name>/``, beside ``summary.json``. Everything is built in a staging folder and
+    published at the end, so an error leaves ``out`` as it was. Figures and animations,
+    the slow part, are drawn in ``workers`` processes (default: one per core, at most
+    one per scenario).
     """
     out = Path(out)
     scenarios = list(scenarios) if scenarios is not None else builtin_scenarios()
+    names = [sc.name for sc in scenarios]
+    if len(set(names)) != len(names):
+        raise ValueError(f"scenario names must differ (each gets a folder), got {names}")
+    staged = StagedFolder(out)  # an --out that is a file fails here, before any work
     results, entries = [], []
     for sc in scenarios:
         result = run_scenario(sc)
-        folder = out / sc.name
-        folder.mkdir(parents=True, exist_ok=True)
-        path = write_json(folder / "maneuver.json", result.to_dict())
         results.append(result)
-        entries.append(summary_entry(result, path.relative_to(out).as_posix()))
+        entries.append(summary_entry(result, f"{sc.name}/maneuver.json"))
         if progress:
             final = result.stages[-1]
             progress(
@@ -162,20 +164,22 @@ def reproduce(
                 f"max |steer| {result.max_abs_front_steer_deg:.2f} deg (limit "
                 f"{math.degrees(result.vehicle.max_steer):.2f})"
             )
-    if (plots or animation) and results:
+    with staged as stage:
+        folders = [stage / r.name for r in results]
+        for r, folder in zip(results, folders, strict=True):
+            save_maneuver(r, folder, plots=False, animation=False)
         n = max(1, min(workers or os.cpu_count() or 1, len(results)))
-        folders = [out / r.name for r in results]
-        if n == 1:
-            for r, f in zip(results, folders, strict=True):
-                render_maneuver(r, f, plots, animation)
-        else:
+        if (plots or animation) and n == 1:
+            for r, folder in zip(results, folders, strict=True):
+                render_maneuver(r, folder, plots, animation)
+        elif plots or animation:
             with ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn")) as pool:
                 jobs = [
                     pool.submit(render_maneuver, r, f, plots, animation) for r, f in zip(results, folders, strict=True)
                 ]
                 for job in jobs:
                     job.result()
-        if progress:
-            progress(f"figures{' and animations' if animation else ''} in {out}/<scenario>/")
-    summary = write_json(out / "summary.json", {"scenarios": entries})
-    return results, summary
+        write_json(stage / "summary.json", {"scenarios": entries})
+    if progress and (plots or animation):
+        progress(f"figures{' and animations' if animation else ''} in {out}/<scenario>/")
+    return results, out / "summary.json"

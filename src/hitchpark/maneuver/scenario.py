@@ -27,6 +27,7 @@ The four scenarios of Section 6.1 ship with the package (:func:`builtin_scenario
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, fields
 from importlib import resources
 from pathlib import Path
@@ -105,8 +106,8 @@ def scenario_from_dict(data: dict[str, Any], path: Path | None = None) -> Scenar
     start_d = _pose_fields("start", _table(data, "start"), ("x", "y", "yaw_deg", "hitch_deg"), required=True)
     goal_d = _pose_fields("goal", _table(data, "goal"), ("x", "y", "yaw_deg"), required=False)
     name = data.get("name", path.stem if path else "scenario")
-    if not isinstance(name, str) or not name.strip():
-        raise ValueError(f"name must be a non-empty string, got {name!r}")
+    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", name):
+        raise ValueError(f"name must be letters, digits, '_', '.' or '-' (it names a folder), got {name!r}")
     description = data.get("description", "")
     if not isinstance(description, str):
         raise ValueError(f"description must be a string, got {description!r}")
@@ -120,7 +121,7 @@ def scenario_from_dict(data: dict[str, Any], path: Path | None = None) -> Scenar
     )
     vehicle.require_hitch_offset()
     check_state(vehicle, start)
-    return Scenario(name.strip(), start, goal, vehicle, settings, description, path)
+    return Scenario(name, start, goal, vehicle, settings, description, path)
 
 
 def load_scenario(path: str | Path) -> Scenario:
