@@ -146,7 +146,7 @@ def test_park_from_a_start(parked):
     assert start_of(data) == (10.0, 3.5, 0.0, 0.0)
     assert data["goal"] == {"x": 0.0, "y": 0.0, "yaw_deg": 0.0}
     assert data["success"] is True and len(data["stages"]) == 3
-    assert sorted(p.name for p in parked.folder.iterdir()) == ["maneuver.json"]
+    assert sorted(p.name for p in parked.folder.iterdir()) == ["maneuver.json", "trajectory.csv"]
     assert "parked" in parked.out and "maneuver.json" in parked.out
 
 
@@ -186,7 +186,8 @@ def test_plot_a_saved_maneuver(parked, tmp_path, capsys):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert str(png) in captured.out
     assert not list(out.glob("*.gif"))
-    assert sorted(p.name for p in parked.folder.iterdir()) == ["maneuver.json"]  # the source folder untouched
+    # the source folder untouched
+    assert sorted(p.name for p in parked.folder.iterdir()) == ["maneuver.json", "trajectory.csv"]
 
 
 # --- help ------------------------------------------------------------------------------------
@@ -352,3 +353,16 @@ def test_scenario_name_must_be_a_plain_folder_name(tmp_path, capsys):
     path.write_text('name = "../escape"\n[start]\nx = 10.0\ny = 3.5\nyaw_deg = 0.0\nhitch_deg = 0.0\n')
     assert run(["park", "--scenario", str(path), "--out", str(tmp_path / "out"), "--no-plots"]) == EXIT_BAD_INPUT
     assert "name" in one_error_line(capsys.readouterr().err)
+
+
+def test_park_csv_matches_the_json(parked):
+    import numpy as np
+
+    data = read(parked.folder / "maneuver.json")["trajectory"]
+    with open(parked.folder / "trajectory.csv", encoding="utf-8") as fh:
+        header = fh.readline().strip().split(",")
+    table = np.loadtxt(parked.folder / "trajectory.csv", delimiter=",", skiprows=1)
+    assert header == list(data)
+    for i, name in enumerate(header):
+        column = np.array([np.nan if v is None else v for v in data[name]], dtype=float)
+        np.testing.assert_allclose(table[:, i], column, rtol=1e-15, equal_nan=True)

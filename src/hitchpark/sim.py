@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -113,7 +114,7 @@ class Trajectory:
     def from_dict(cls, data: Mapping[str, Iterable[float | None]]) -> Trajectory:
         return cls({k: [np.nan if x is None else x for x in v] for k, v in data.items()})
 
-    def to_csv(self, path: str) -> None:
+    def to_csv(self, path: str | Path) -> None:
         header = ",".join(self.names)
         np.savetxt(path, np.column_stack(list(self.columns.values())), delimiter=",", header=header, comments="")
 

@@ -119,9 +119,6 @@ class ManeuverResult:
     def duration(self) -> float:
         return float(self.trajectory["t"][-1])
 
-    def final_state(self) -> State:
-        return State.from_array(self.trajectory.states()[-1])
-
     def stage_rows(self, index: int) -> slice:
         """Rows of stage ``index``, including the state it ended in."""
         st = self.stages[index]

@@ -64,9 +64,14 @@ def render_maneuver(
 
 
 def save_maneuver(result: ManeuverResult, folder: Path, plots: bool = True, animation: bool = True) -> dict[str, Path]:
-    """Write ``maneuver.json`` (and the figures and GIF if asked) into ``folder``; return the paths by name."""
+    """Write ``maneuver.json`` and ``trajectory.csv`` (and the figures and GIF if asked) into ``folder``.
+
+    Returns the paths by name. The CSV holds the trajectory columns alone, for tools that read tables.
+    """
     folder.mkdir(parents=True, exist_ok=True)
     files = {"maneuver": write_json(folder / "maneuver.json", result.to_dict())}
+    result.trajectory.to_csv(folder / "trajectory.csv")
+    files["trajectory"] = folder / "trajectory.csv"
     files.update(render_maneuver(result, folder, plots, animation))
     return files
 

@@ -52,18 +52,22 @@ def virtual_steer_from_front(vehicle: VehicleTrailer, hitch_angle: Any, front_st
     return m.atan2(L * s - L_H * c * t, L * c + L_H * s * t)  # Eq. (56)
 
 
+def _eq44_ratio(hitch_angle: Any, virtual_steer: Any) -> Any:
+    """V_R / V_T = cos(hitch) + sin(hitch) tan(delta_T): the denominator of Eq. (44)."""
+    m = ops(hitch_angle, virtual_steer)
+    return m.cos(hitch_angle) + m.sin(hitch_angle) * m.tan(virtual_steer)
+
+
 def trailer_speed_from_virtual(vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, rear_speed: Any) -> Any:
     """Trailer-axle speed V_T from the rear-axle speed V_R, Eq. (44)."""
-    m = ops(hitch_angle, virtual_steer, rear_speed)
-    return rear_speed / (m.cos(hitch_angle) + m.sin(hitch_angle) * m.tan(virtual_steer))  # Eq. (44)
+    return rear_speed / _eq44_ratio(hitch_angle, virtual_steer)  # Eq. (44)
 
 
 def rear_speed_from_trailer_speed(
     vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, trailer_speed: Any
 ) -> Any:
     """Rear-axle speed V_R that gives the trailer axle the speed V_T: Eq. (44) solved for V_R."""
-    m = ops(hitch_angle, virtual_steer, trailer_speed)
-    return trailer_speed * (m.cos(hitch_angle) + m.sin(hitch_angle) * m.tan(virtual_steer))  # Eq. (44)
+    return trailer_speed * _eq44_ratio(hitch_angle, virtual_steer)  # Eq. (44)
 
 
 def vehicle_yaw_rate_from_virtual(
