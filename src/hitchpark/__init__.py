@@ -6,6 +6,7 @@ kinematic vehicle-trailer model, its inverse kinematics, a trailer-only NMPC and
 the 3-stage (reverse, forward, reverse) parking maneuver. Angles are radians.
 """
 
+from .maneuver import ManeuverResult, park
 from .model import (
     VehicleTrailer,
     front_steer_from_virtual,
@@ -14,16 +15,20 @@ from .model import (
     virtual_steer_bounds,
     virtual_steer_from_front,
 )
+from .model.geometry import Pose
 from .sim import State, Trajectory, simulate
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "ManeuverResult",
+    "Pose",
     "State",
     "Trajectory",
     "VehicleTrailer",
     "front_steer_from_virtual",
     "load_vehicle",
+    "park",
     "rear_speed_from_trailer_speed",
     "simulate",
     "virtual_steer_bounds",

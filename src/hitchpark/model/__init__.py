@@ -1,6 +1,7 @@
 """Vehicle-trailer model: parameters, kinematics (Section 2), inverse kinematics (Section 3)."""
 
-from .integrate import rk4, step_full
+from .geometry import Pose, body_outlines, to_goal_frame, wrap_angle
+from .integrate import plant_function, rk4, step_full
 from .inverse import (
     actual_virtual_steer,
     front_steer_from_virtual,
@@ -29,17 +30,21 @@ __all__ = [
     "FULL_STATE",
     "TRAILER_INPUT",
     "TRAILER_STATE",
+    "Pose",
     "VehicleTrailer",
     "actual_virtual_steer",
+    "body_outlines",
     "front_steer_from_virtual",
     "full_rates",
     "full_rhs",
     "hitch_point",
     "load_vehicle",
+    "plant_function",
     "rear_axle_pose",
     "rear_speed_from_trailer_speed",
     "rk4",
     "step_full",
+    "to_goal_frame",
     "trailer_rhs",
     "trailer_speed_from_rear_speed",
     "trailer_speed_from_virtual",
@@ -47,4 +52,5 @@ __all__ = [
     "vehicle_yaw_rate_from_virtual",
     "virtual_steer_bounds",
     "virtual_steer_from_front",
+    "wrap_angle",
 ]
