@@ -6,6 +6,7 @@ kinematic vehicle-trailer model, its inverse kinematics, a trailer-only NMPC and
 the 3-stage (reverse, forward, reverse) parking maneuver. Angles are radians.
 """
 
+from .checks import InputError
 from .maneuver import ManeuverResult, park
 from .model import (
     VehicleTrailer,
@@ -21,6 +22,7 @@ from .sim import State, Trajectory, simulate
 __version__ = "0.1.0"
 
 __all__ = [
+    "InputError",
     "ManeuverResult",
     "Pose",
     "State",

@@ -1,7 +1,7 @@
 """Input checks shared by every settings and parameter class: one message style, one notion of a number.
 
-Each returns the value as a Python float (or int) and raises ``ValueError`` naming the
-field, what is allowed and what was given.
+Each returns the value as a Python float (or int) and raises :class:`InputError` (a
+``ValueError``) naming the field, what is allowed and what was given.
 """
 
 from __future__ import annotations
@@ -12,7 +12,16 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MAX_COORDINATE", "MAX_YAW", "check_int", "check_number", "check_range"]
+__all__ = ["MAX_COORDINATE", "MAX_YAW", "InputError", "check_int", "check_number", "check_range"]
+
+
+class InputError(ValueError):
+    """Bad input to hitchpark: a parameter, a setting, a file, a pose. The message names what and what is allowed.
+
+    A ``ValueError``, so ``except ValueError`` catches it; the command line reports it on one line with
+    exit status 2, while any other exception is a bug and keeps its traceback.
+    """
+
 
 #: Largest |x|, |y| accepted for a pose [m]: parking happens within a few hundred metres, and far
 #: beyond this double precision no longer resolves the millimetres the controller works in.
@@ -25,10 +34,10 @@ MAX_YAW = 20 * math.pi
 def check_number(name: str, value: Any) -> float:
     """A finite real number (NumPy scalars too, booleans not)."""
     if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{name} must be a number, got {value!r}")
+        raise InputError(f"{name} must be a number, got {value!r}")
     value = float(value)
     if not math.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value}")
+        raise InputError(f"{name} must be finite, got {value}")
     return value
 
 
@@ -51,16 +60,16 @@ def check_range(
         hi = "" if high == math.inf else f"{'<' if high_open else '<='} {high:g}"
         allowed = " and ".join(s for s in (lo, hi) if s)
         u = f" {unit}" if unit else ""
-        raise ValueError(f"{name} must be {allowed}{u}, got {v:g}")
+        raise InputError(f"{name} must be {allowed}{u}, got {v:g}")
     return v
 
 
 def check_int(name: str, value: Any, low: int = 1, high: int | None = None) -> int:
     """An integer within [low, high]."""
     if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
-        raise ValueError(f"{name} must be an integer, got {value!r}")
+        raise InputError(f"{name} must be an integer, got {value!r}")
     value = int(value)
     if value < low or (high is not None and value > high):
         allowed = f">= {low}" + (f" and <= {high}" if high is not None else "")
-        raise ValueError(f"{name} must be an integer {allowed}, got {value}")
+        raise InputError(f"{name} must be an integer {allowed}, got {value}")
     return value

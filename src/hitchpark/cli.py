@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from .checks import InputError
 from .control.nmpc import Pose
 from .model.vehicle import VehicleTrailer, load_vehicle, vehicle_from_dict
 from .sim import State
@@ -20,7 +21,7 @@ _VEHICLE_OVERRIDES = ("wheelbase", "hitch_offset", "trailer_length")
 EXIT_BAD_INPUT = 2
 
 
-class UsageError(Exception):
+class UsageError(InputError):
     """Bad command-line input: reported on one line, exit status 2."""
 
 
@@ -185,13 +186,16 @@ def _cmd_plot(args: argparse.Namespace) -> int:
 
     try:
         data = read_json(args.maneuver)
-        result = ManeuverResult.from_dict(data)
     except OSError as exc:
         raise UsageError(f"cannot read {args.maneuver}: {exc.strerror or exc}") from None
-    except UnicodeDecodeError:
-        raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON (not UTF-8 text)") from None
-    except (KeyError, TypeError, AttributeError, ValueError) as exc:
-        raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON ({type(exc).__name__}: {exc})") from None
+    except ValueError:  # not JSON, or not UTF-8 text
+        raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON (not JSON text)") from None
+    if not isinstance(data, dict):
+        raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON (not a JSON object)")
+    try:
+        result = ManeuverResult.from_dict(data)
+    except InputError as exc:
+        raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON: {exc}") from None
     out = args.out if args.out is not None else args.maneuver.parent
     with StagedFolder(out) as stage:
         files = render_maneuver(result, stage, plots=True, animation=not args.no_animation)
@@ -275,7 +279,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args.func(args))
-    except (UsageError, ValueError) as exc:
+    except InputError as exc:  # any other exception is a bug and keeps its traceback
         print(f"hitchpark {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BrokenPipeError:  # the reader of stdout went away (`hitchpark ... | head`): stop quietly

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from .checks import InputError
+
 __all__ = ["StagedFolder", "read_json", "read_toml", "to_jsonable", "write_json"]
 
 
@@ -67,7 +69,7 @@ class StagedFolder:
     def __init__(self, target: str | Path):
         self.target = Path(target)
         if self.target.exists() and not self.target.is_dir():
-            raise ValueError(f"output folder {self.target} exists and is not a folder")
+            raise InputError(f"output folder {self.target} exists and is not a folder")
         self._created = False
         self.path = self.target
 
@@ -92,7 +94,7 @@ class StagedFolder:
             dest = self.target / entry.name
             if dest.exists() and dest.is_dir() != entry.is_dir():
                 kind = "folder" if entry.is_dir() else "file"
-                raise ValueError(f"cannot write the {kind} {dest}: something else of that name is in the way")
+                raise InputError(f"cannot write the {kind} {dest}: something else of that name is in the way")
         for entry in entries:
             dest = self.target / entry.name
             if dest.is_dir():
@@ -111,9 +113,9 @@ def read_toml(path: str | Path, what: str) -> dict[str, Any]:
     try:
         return tomllib.loads(path.read_text(encoding="utf-8"))
     except OSError as exc:
-        raise ValueError(f"cannot read {what} file {path}: {exc.strerror or exc}") from None
+        raise InputError(f"cannot read {what} file {path}: {exc.strerror or exc}") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{what} file {path} is not valid TOML: {exc}") from None
+        raise InputError(f"{what} file {path} is not valid TOML: {exc}") from None
 
 
 def read_json(path: str | Path) -> Any:

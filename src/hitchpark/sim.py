@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from .checks import check_number, check_range
+from .checks import InputError, check_number, check_range
 from .model.geometry import check_pose
 from .model.integrate import step_full
 from .model.kinematics import rear_axle_pose
@@ -74,7 +74,7 @@ def check_state(vehicle: VehicleTrailer, state: State, what: str = "start") -> N
     check_pose(what, state.x, state.y, state.yaw)
     check_number(f"{what} hitch", state.hitch)
     if abs(state.hitch) > vehicle.max_hitch:
-        raise ValueError(
+        raise InputError(
             f"{what} hitch angle must be within the jackknife limit +-{math.degrees(vehicle.max_hitch):g} deg, "
             f"got {math.degrees(state.hitch):g} deg"
         )
@@ -87,7 +87,7 @@ class Trajectory:
         self.columns = {k: np.asarray(v, dtype=float) for k, v in columns.items()}
         lengths = {len(v) for v in self.columns.values()}
         if len(lengths) > 1:
-            raise ValueError(f"trajectory columns differ in length: {sorted(lengths)}")
+            raise InputError(f"trajectory columns differ in length: {sorted(lengths)}")
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.columns[name]
@@ -170,14 +170,14 @@ def simulate(
     check_range("speed", rear_speed, -MAX_SPEED, MAX_SPEED, unit="m/s (a kinematic model holds at low speed)")
     check_number("steer", front_steer)
     if abs(front_steer) > vehicle.max_steer:
-        raise ValueError(
+        raise InputError(
             f"steer must be within +-{math.degrees(vehicle.max_steer):g} deg (max_steer), "
             f"got {math.degrees(front_steer):g} deg"
         )
     check_range("dt", dt, 0.0, 10.0, low_open=True, unit="s")
     check_range("duration", duration, 0.0, low_open=True, unit="s")
     if duration / dt > MAX_SIM_STEPS:
-        raise ValueError(
+        raise InputError(
             f"duration / dt must give at most {MAX_SIM_STEPS} steps, got {duration / dt:.3g} "
             f"(duration {duration:g} s, dt {dt:g} s)"
         )

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from .checks import InputError
 from .model.integrate import rk4
 from .model.inverse import actual_virtual_steer, front_steer_from_virtual, trailer_speed_from_virtual
 from .model.kinematics import full_rhs, trailer_rhs
@@ -77,7 +78,7 @@ def inverse_kinematics_study(
     """
     vehicle.require_hitch_offset()
     if rear_speed == 0 or not abs(rear_speed) <= MAX_SPEED:
-        raise ValueError(f"rear speed must be non-zero and within +-{MAX_SPEED:g} m/s, got {rear_speed:g}")
+        raise InputError(f"rear speed must be non-zero and within +-{MAX_SPEED:g} m/s, got {rear_speed:g}")
 
     def rhs(z: np.ndarray) -> np.ndarray:
         t, full, trailer = z[0], z[1:5], z[5:8]

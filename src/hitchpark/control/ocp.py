@@ -19,7 +19,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from ..checks import check_int, check_range
+from ..checks import InputError, check_int, check_range
 from ..model.inverse import virtual_steer_bounds
 from ..model.kinematics import TRAILER_INPUT, TRAILER_STATE, trailer_rhs
 from ..model.vehicle import VehicleTrailer
@@ -33,7 +33,7 @@ def _diag(name: str, values: Sequence[float], size: int, positive: bool) -> tupl
     except TypeError:
         items = None
     if items is None or len(items) != size:
-        raise ValueError(f"{name} must be a list of {size} numbers (the diagonal), got {values!r}")
+        raise InputError(f"{name} must be a list of {size} numbers (the diagonal), got {values!r}")
     low_open = positive  # Q, P > 0 as Eq. (49) asks; R may have zeros (Table 4: R = diag(0, 0.1))
     return tuple(check_range(f"{name}[{i}]", v, 0.0, low_open=low_open) for i, v in enumerate(items))
 
@@ -107,11 +107,11 @@ class NMPCSettings:
         put("virtual_limit", lim)
         put("stop_speed", check_range("nmpc.stop_speed", self.stop_speed, 0.0, 0.1, low_open=True, unit="m/s"))
         if self.solver not in ("ipopt", "sqp"):
-            raise ValueError(f"nmpc.solver must be 'ipopt' or 'sqp', got {self.solver!r}")
+            raise InputError(f"nmpc.solver must be 'ipopt' or 'sqp', got {self.solver!r}")
         if self.fallback_solver not in ("ipopt", "sqp", None):
-            raise ValueError(f"nmpc.fallback_solver must be 'ipopt', 'sqp' or none, got {self.fallback_solver!r}")
+            raise InputError(f"nmpc.fallback_solver must be 'ipopt', 'sqp' or none, got {self.fallback_solver!r}")
         if self.transcription not in ("multiple_shooting", "single_shooting"):
-            raise ValueError(
+            raise InputError(
                 f"nmpc.transcription must be 'multiple_shooting' or 'single_shooting', got {self.transcription!r}"
             )
 

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import check_int, check_range
+from ..checks import InputError, check_int, check_range
 from ..control.nmpc import Pose, TrailerNMPC, to_goal_frame
 from ..control.ocp import NMPCSettings
 from ..control.pure_pursuit import PurePursuitSettings, forward_done, pure_pursuit_steer
@@ -162,10 +162,12 @@ class ManeuverResult:
                 trajectory=Trajectory.from_dict(data["trajectory"]),
                 name=str(data.get("name", "")),
             )
+        except InputError:
+            raise
         except KeyError as exc:
-            raise ValueError(f"maneuver data lacks {exc}") from None
-        except (TypeError, AttributeError) as exc:
-            raise ValueError(f"maneuver data is malformed: {exc}") from None
+            raise InputError(f"maneuver data lacks {exc}") from None
+        except (TypeError, AttributeError, ValueError) as exc:
+            raise InputError(f"maneuver data is malformed: {exc}") from None
         result._check_layout()
         return result
 
@@ -173,24 +175,24 @@ class ManeuverResult:
         """Stages must tile the trajectory: contiguous rows from 0 to the last, every column present."""
         missing = [c for c in MANEUVER_COLUMNS if c not in self.trajectory]
         if missing:
-            raise ValueError(f"maneuver trajectory lacks the column {missing[0]!r}")
+            raise InputError(f"maneuver trajectory lacks the column {missing[0]!r}")
         n = len(self.trajectory)
         if n < 1 or not self.stages:
-            raise ValueError("maneuver has no rows or no stages")
+            raise InputError("maneuver has no rows or no stages")
         expected_first = 0
         for i, st in enumerate(self.stages):
             if st.kind not in ("reverse", "forward"):
-                raise ValueError(f"stage {i} kind must be 'reverse' or 'forward', got {st.kind!r}")
+                raise InputError(f"stage {i} kind must be 'reverse' or 'forward', got {st.kind!r}")
             if not (isinstance(st.first_row, int) and isinstance(st.last_row, int)):
-                raise ValueError(f"stage {i} rows must be integers, got {st.first_row!r}, {st.last_row!r}")
+                raise InputError(f"stage {i} rows must be integers, got {st.first_row!r}, {st.last_row!r}")
             if st.first_row != expected_first or not st.first_row <= st.last_row < n:
-                raise ValueError(
+                raise InputError(
                     f"stage {i} rows [{st.first_row}, {st.last_row}] do not follow on from row {expected_first} "
                     f"within the {n} rows of the trajectory"
                 )
             expected_first = st.last_row
         if expected_first != n - 1:
-            raise ValueError(f"the stages end at row {expected_first}, the trajectory at row {n - 1}")
+            raise InputError(f"the stages end at row {expected_first}, the trajectory at row {n - 1}")
 
 
 class _Recorder:
@@ -263,7 +265,7 @@ def park(
     dt = nmpc_s.dt
     nmpc = controller or TrailerNMPC(vehicle, nmpc_s, goal)
     if (nmpc.vehicle, nmpc.goal, nmpc.settings) != (vehicle, goal, nmpc_s):
-        raise ValueError("controller was built for another vehicle, goal or NMPC settings than this maneuver")
+        raise InputError("controller was built for another vehicle, goal or NMPC settings than this maneuver")
     rec = _Recorder()
     stages: list[StageResult] = []
     state = start.as_array()

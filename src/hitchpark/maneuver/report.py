@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import InputError
 from ..io import StagedFolder, write_json
 from .process import ManeuverResult, park
 from .scenario import Scenario, builtin_scenarios
@@ -152,7 +153,7 @@ def reproduce(
     scenarios = list(scenarios) if scenarios is not None else builtin_scenarios()
     names = [sc.name for sc in scenarios]
     if len(set(names)) != len(names):
-        raise ValueError(f"scenario names must differ (each gets a folder), got {names}")
+        raise InputError(f"scenario names must differ (each gets a folder), got {names}")
     staged = StagedFolder(out)  # an --out that is a file fails here, before any work
     results, entries = [], []
     for sc in scenarios:

@@ -33,7 +33,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from ..checks import check_number
+from ..checks import InputError, check_number
 from ..control.nmpc import Pose
 from ..control.ocp import NMPCSettings
 from ..control.pure_pursuit import PurePursuitSettings
@@ -66,7 +66,7 @@ class Scenario:
 def _table(data: dict[str, Any], key: str) -> dict[str, Any]:
     value = data.get(key, {})
     if not isinstance(value, dict):
-        raise ValueError(f"[{key}] must be a table, got {type(value).__name__}")
+        raise InputError(f"[{key}] must be a table, got {type(value).__name__}")
     return value
 
 
@@ -77,10 +77,10 @@ def _number(table: str, key: str, value: Any) -> float:
 def _pose_fields(table: str, data: dict[str, Any], keys: tuple[str, ...], required: bool) -> dict[str, float]:
     unknown = sorted(set(data) - set(keys))
     if unknown:
-        raise ValueError(f"unknown key {table}.{unknown[0]}; allowed: {', '.join(keys)}")
+        raise InputError(f"unknown key {table}.{unknown[0]}; allowed: {', '.join(keys)}")
     missing = [k for k in keys if k not in data]
     if required and missing:
-        raise ValueError(f"{table}.{missing[0]} is missing; [{table}] needs {', '.join(keys)}")
+        raise InputError(f"{table}.{missing[0]} is missing; [{table}] needs {', '.join(keys)}")
     return {k: _number(table, k, data[k]) for k in keys if k in data}
 
 
@@ -88,29 +88,29 @@ def _settings(cls: type, table: str, data: dict[str, Any]) -> Any:
     allowed = tuple(f.name for f in fields(cls) if f.name != "solver_options")
     unknown = sorted(set(data) - set(allowed))
     if unknown:
-        raise ValueError(f"unknown key {table}.{unknown[0]}; allowed: {', '.join(allowed)}")
+        raise InputError(f"unknown key {table}.{unknown[0]}; allowed: {', '.join(allowed)}")
     values = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
     try:
         return cls(**values)
     except TypeError as exc:
-        raise ValueError(f"[{table}]: {exc}") from None
+        raise InputError(f"[{table}]: {exc}") from None
 
 
 def scenario_from_dict(data: dict[str, Any], path: Path | None = None) -> Scenario:
     """Build and check a :class:`Scenario` from parsed TOML."""
     unknown = sorted(set(data) - set(_TOP))
     if unknown:
-        raise ValueError(f"unknown top-level key {unknown[0]!r}; allowed: {', '.join(_TOP)}")
+        raise InputError(f"unknown top-level key {unknown[0]!r}; allowed: {', '.join(_TOP)}")
     if "start" not in data:
-        raise ValueError("[start] is missing: it needs x, y, yaw_deg, hitch_deg")
+        raise InputError("[start] is missing: it needs x, y, yaw_deg, hitch_deg")
     start_d = _pose_fields("start", _table(data, "start"), ("x", "y", "yaw_deg", "hitch_deg"), required=True)
     goal_d = _pose_fields("goal", _table(data, "goal"), ("x", "y", "yaw_deg"), required=False)
     name = data.get("name", path.stem if path else "scenario")
     if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", name):
-        raise ValueError(f"name must be letters, digits, '_', '.' or '-' (it names a folder), got {name!r}")
+        raise InputError(f"name must be letters, digits, '_', '.' or '-' (it names a folder), got {name!r}")
     description = data.get("description", "")
     if not isinstance(description, str):
-        raise ValueError(f"description must be a string, got {description!r}")
+        raise InputError(f"description must be a string, got {description!r}")
     vehicle = vehicle_from_dict(_table(data, "vehicle"))
     start = State(start_d["x"], start_d["y"], math.radians(start_d["yaw_deg"]), math.radians(start_d["hitch_deg"]))
     goal = Pose(goal_d.get("x", 0.0), goal_d.get("y", 0.0), math.radians(goal_d.get("yaw_deg", 0.0)))
@@ -131,7 +131,7 @@ def load_scenario(path: str | Path) -> Scenario:
     try:
         return scenario_from_dict(data, path)
     except ValueError as exc:
-        raise ValueError(f"scenario file {path}: {exc}") from None
+        raise InputError(f"scenario file {path}: {exc}") from None
 
 
 def builtin_scenarios() -> list[Scenario]:

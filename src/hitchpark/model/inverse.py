@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import InputError
 from .kinematics import full_rates, ops
 from .vehicle import VehicleTrailer
 
@@ -112,7 +113,7 @@ def virtual_steer_bounds(vehicle: VehicleTrailer, hitch_angle: Any, virtual_limi
     """
     vehicle.require_hitch_offset()  # at L_H = 0 the virtual steer is pinned to the hitch angle
     if not np.isfinite(virtual_limit) or virtual_limit <= 0:
-        raise ValueError(f"virtual_limit must be a finite angle > 0 rad, got {virtual_limit!r}")
+        raise InputError(f"virtual_limit must be a finite angle > 0 rad, got {virtual_limit!r}")
     lb1 = virtual_steer_from_front(vehicle, hitch_angle, vehicle.max_steer)  # Eq. (56) at delta_f,max
     ub1 = virtual_steer_from_front(vehicle, hitch_angle, -vehicle.max_steer)  # Eq. (56) at delta_f,min
     low = np.clip(np.maximum(lb1, -virtual_limit), lb1, ub1)  # Eq. (57), clipped into [lb1, ub1]

@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-from ..checks import check_range
+from ..checks import InputError, check_range
 from ..io import read_toml
 
 __all__ = ["VehicleTrailer", "load_vehicle", "vehicle_from_dict"]
@@ -81,7 +81,7 @@ class VehicleTrailer:
                 ),
             )
         if self.trailer_front >= self.trailer_length:
-            raise ValueError(
+            raise InputError(
                 f"trailer_front must be < trailer_length ({self.trailer_length:g} m): "
                 f"the trailer body ends before the hitch, got {self.trailer_front:g}"
             )
@@ -89,7 +89,7 @@ class VehicleTrailer:
     def require_hitch_offset(self) -> None:
         """Raise ``ValueError`` unless L_H > 0, which the inverse kinematics need."""
         if self.hitch_offset <= 0.0:
-            raise ValueError(
+            raise InputError(
                 "hitch_offset must be > 0 m for the inverse kinematics (Eq. 45 divides by L_H); "
                 f"got {self.hitch_offset:g}"
             )
@@ -105,7 +105,7 @@ def vehicle_from_dict(data: dict[str, Any], base: VehicleTrailer | None = None) 
     """Build a vehicle from a mapping of field names, starting from ``base`` (default: Table 4)."""
     unknown = sorted(set(data) - set(_FIELDS))
     if unknown:
-        raise ValueError(f"unknown vehicle field {unknown[0]!r}; allowed fields: {', '.join(_FIELDS)}")
+        raise InputError(f"unknown vehicle field {unknown[0]!r}; allowed fields: {', '.join(_FIELDS)}")
     return replace(base or VehicleTrailer(), **data)
 
 
@@ -121,4 +121,4 @@ def load_vehicle(path: str | Path, base: VehicleTrailer | None = None) -> Vehicl
     try:
         return vehicle_from_dict(data, base)
     except ValueError as exc:
-        raise ValueError(f"vehicle file {path}: {exc}") from None
+        raise InputError(f"vehicle file {path}: {exc}") from None

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..checks import InputError
 from ..model.geometry import along, body_outlines, parking_space, to_goal_frame, wheel_outlines
 from ..model.inverse import virtual_steer_bounds
 from . import use_headless_backend
@@ -589,9 +590,9 @@ def plot_maneuver(
         If ``snapshot_every`` is not a positive time, or the maneuver has no rows or stages.
     """
     if not math.isfinite(snapshot_every) or snapshot_every <= 0:
-        raise ValueError(f"snapshot_every must be a finite time > 0 s, got {snapshot_every!r}")
+        raise InputError(f"snapshot_every must be a finite time > 0 s, got {snapshot_every!r}")
     if len(result.trajectory) == 0 or not result.stages:
-        raise ValueError("the maneuver has no trajectory rows or no stages: nothing to plot")
+        raise InputError("the maneuver has no trajectory rows or no stages: nothing to plot")
     use_headless_backend()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -655,12 +656,12 @@ def animate_maneuver(
         If ``fps`` or ``max_frames`` is not an integer >= 1, or the maneuver has no rows or stages.
     """
     if isinstance(fps, bool) or not isinstance(fps, int) or fps < 1:
-        raise ValueError(f"fps must be an integer >= 1, got {fps!r}")
+        raise InputError(f"fps must be an integer >= 1, got {fps!r}")
     if isinstance(max_frames, bool) or not isinstance(max_frames, int) or max_frames < 1:
-        raise ValueError(f"max_frames must be an integer >= 1, got {max_frames!r}")
+        raise InputError(f"max_frames must be an integer >= 1, got {max_frames!r}")
     tr = result.trajectory
     if len(tr) == 0 or not result.stages:
-        raise ValueError("the maneuver has no trajectory rows or no stages: nothing to animate")
+        raise InputError("the maneuver has no trajectory rows or no stages: nothing to animate")
     use_headless_backend()
     import matplotlib.pyplot as plt
     from matplotlib.patches import Polygon
