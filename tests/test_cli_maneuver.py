@@ -366,3 +366,16 @@ def test_park_csv_matches_the_json(parked):
     for i, name in enumerate(header):
         column = np.array([np.nan if v is None else v for v in data[name]], dtype=float)
         np.testing.assert_allclose(table[:, i], column, rtol=1e-15, equal_nan=True)
+
+
+def test_a_bug_is_not_reported_as_bad_input(tmp_path, monkeypatch):
+    """Only InputError means bad input (exit 2); any other exception is a bug and propagates."""
+    import hitchpark.maneuver.process as process
+
+    def broken(*args, **kwargs):
+        raise ValueError("internal bug")
+
+    monkeypatch.setattr(process, "park", broken)
+    with pytest.raises(ValueError, match="internal bug"):
+        main(["park", "--start", "10,3.5,0,0", "--out", str(tmp_path / "out"), "--no-plots"])
+    assert not (tmp_path / "out").exists()
