@@ -16,6 +16,7 @@ $(VENV)/.installed: pyproject.toml | $(BIN)/python
 
 demo: $(VENV)/.installed
 	$(BIN)/hitchpark reproduce --out $(OUT)
+	$(BIN)/hitchpark ik-study --out $(OUT)/ik_study
 	@echo "demo results in $(OUT)/"
 
 test: $(VENV)/.installed
