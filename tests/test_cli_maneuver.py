@@ -14,24 +14,10 @@ import pytest
 from hitchpark.cli import EXIT_BAD_INPUT, main
 from hitchpark.maneuver.scenario import BUILTIN_ORDER
 from test_cli import one_error_line, run
+from test_sim import EXPECTED_COLUMNS
 
-TRAJECTORY_COLUMNS = {
-    "t",
-    "x_trailer",
-    "y_trailer",
-    "yaw_trailer",
-    "yaw_vehicle",
-    "hitch",
-    "x_rear",
-    "y_rear",
-    "rear_speed",
-    "front_steer",
-    "stage",
-    "trailer_speed",
-    "virtual_steer",
-    "cost",
-    "solve_ms",
-}
+# The columns the issue names: those of `simulate` plus the controller's.
+TRAJECTORY_COLUMNS = {*EXPECTED_COLUMNS, "stage", "trailer_speed", "virtual_steer", "cost", "solve_ms"}
 STAGE_KEYS = {"kind", "steps", "distance_error_m", "orientation_error_deg", "final_hitch_deg"}
 
 START = "[start]\nx = 10.0\ny = 3.5\nyaw_deg = 0.0\nhitch_deg = 0.0\n"
