@@ -316,12 +316,11 @@ def park(
             else:
                 stage_reason = "stalled"
         else:
-            travelled = 0.0
             while not forward_done(goal, fwd, state):
                 if t >= ok_crit.max_time - 1e-9:
                     stage_reason = "timeout"
                     break
-                if travelled >= fwd.max_distance - 1e-9:  # summed steps carry rounding
+                if steps * fwd.speed * dt >= fwd.max_distance - 1e-9:  # distance driven so far
                     stage_reason = "stalled"
                     break
                 steer = pure_pursuit_steer(vehicle, goal, fwd, state)
@@ -337,7 +336,7 @@ def park(
                     front_steer=steer,
                     **_forward_virtual(vehicle, state[3], fwd.speed, steer),
                 )
-                state, t, steps, travelled = nxt, t + dt, steps + 1, travelled + fwd.speed * dt
+                state, t, steps = nxt, t + dt, steps + 1
             else:
                 stage_reason = "repositioned"
         dist, orient = pose_errors(goal, state)
