@@ -12,9 +12,9 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from .checks import InputError
-from .control.nmpc import Pose
+from .model.plant import PlantSettings, load_plant
+from .model.state import Pose, State
 from .model.vehicle import VehicleTrailer, load_vehicle, vehicle_from_dict
-from .sim import State
 
 _VEHICLE_OVERRIDES = ("wheelbase", "hitch_offset", "trailer_length")
 
@@ -68,6 +68,15 @@ def _add_vehicle_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--hitch-offset", type=float, metavar="M", help="L_H, rear axle to hitch [m]; overrides the file")
     g.add_argument(
         "--trailer-length", type=float, metavar="M", help="L_T, hitch to trailer axle [m]; overrides the file"
+    )
+
+
+def _add_plant_option(p: argparse.ArgumentParser, default: str) -> None:
+    p.add_argument(
+        "--plant",
+        type=Path,
+        metavar="FILE.toml",
+        help=f"the simulated car: PlantSettings fields at the top level or under [plant] {default}",
     )
 
 
@@ -130,11 +139,15 @@ def parse_goal(text: str) -> Pose:
     return Pose(x, y, math.radians(yaw))
 
 
+def _plant(args: argparse.Namespace) -> PlantSettings | None:
+    return load_plant(args.plant) if args.plant is not None else None
+
+
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    from .maneuver.report import reproduce, table5
+    from .app.report import reproduce, table5
 
     plots = not args.no_plots
-    results, summary = reproduce(args.out, plots=plots, animation=plots, progress=print)
+    results, summary = reproduce(args.out, plots=plots, animation=plots, progress=print, plant=_plant(args))
     print()
     print("Table 5 (trailer distance error, orientation error, final hitch angle):")
     print(table5(results))
@@ -145,8 +158,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 def _cmd_park(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
+    from .app.report import save_maneuver, summary_entry, table5
     from .io import StagedFolder
-    from .maneuver.report import save_maneuver, summary_entry, table5
     from .maneuver.scenario import Scenario, load_scenario
 
     if args.scenario is None and args.start is None:
@@ -157,20 +170,22 @@ def _cmd_park(args: argparse.Namespace) -> int:
         changes["start"] = parse_start(args.start)
     if args.goal is not None:
         changes["goal"] = parse_goal(args.goal)
+    if args.plant is not None:
+        changes["plant"] = _plant(args)
     changes["vehicle"] = vehicle_from_args(args, default=sc.vehicle)
     sc = replace(sc, **changes)
     staged = StagedFolder(args.out)  # an --out that is a file fails here, before the maneuver runs
 
     from .maneuver.process import park
 
-    result = park(sc.vehicle, sc.start, sc.goal, sc.settings, name=sc.name)  # checks vehicle and start
+    result = park(sc.vehicle, sc.start, sc.goal, sc.settings, name=sc.name, plant=sc.plant)  # checks the start
     plots = not args.no_plots
     with staged as stage:
         files = {k: args.out / p.relative_to(stage) for k, p in save_maneuver(result, stage, plots, plots).items()}
     entry = summary_entry(result, "maneuver.json")
     print(table5([result]))
     print(
-        f"{'parked' if result.success else 'NOT parked: ' + result.reason} after {len(result.stages)} stages, "
+        f"{'parked' if result.success else 'NOT parked: ' + result.reason + (f' ({result.detail})' if result.detail else '')} after {len(result.stages)} stages, "
         f"{result.duration:.1f} s; max |front steer| {entry['max_abs_front_steer_deg']:.2f} deg, "
         f"max |hitch| {entry['max_abs_hitch_deg']:.2f} deg"
     )
@@ -180,9 +195,9 @@ def _cmd_park(args: argparse.Namespace) -> int:
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
+    from .app.report import render_maneuver
     from .io import StagedFolder, read_json
-    from .maneuver.process import ManeuverResult
-    from .maneuver.report import render_maneuver
+    from .maneuver.result import ManeuverResult
 
     try:
         data = read_json(args.maneuver)
@@ -245,19 +260,21 @@ def build_parser() -> argparse.ArgumentParser:
         "DIR/NAME/maneuver.json with figures (Figs. 8-15) and an animation. Exit status 1 if any fails to park.",
     )
     p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder")
+    _add_plant_option(p, "instead of the paper's ideal plant")
     p.add_argument("--no-plots", action="store_true", help="write JSON only (no figures, no animation)")
     p.set_defaults(func=_cmd_reproduce)
 
     p = sub.add_parser(
         "park",
         help="park from one start pose",
-        description="Park the trailer from one start with the 3-stage process (reverse NMPC, forward pure pursuit, "
-        "reverse) and write DIR/maneuver.json, figures and an animation. Exit status 1 if it does not park.",
+        description="Park the trailer from one start: reverse NMPC, and forward pure pursuit and reverse again as "
+        "needed, on a simulated car (--plant), and write DIR/maneuver.json, figures and an animation. Exit status 1 if it does not park.",
     )
     p.add_argument("--start", metavar="X,Y,YAW_DEG,HITCH_DEG", help="trailer-axle pose and hitch angle (world frame)")
     p.add_argument("--goal", metavar="X,Y,YAW_DEG", help="goal trailer-axle pose (default 0,0,0 or the scenario's)")
     p.add_argument("--scenario", type=Path, metavar="FILE.toml", help="scenario file; --start/--goal override it")
     _add_vehicle_options(p)
+    _add_plant_option(p, "(default: the scenario's [plant], else the realistic car)")
     p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder")
     p.add_argument("--no-plots", action="store_true", help="write maneuver.json only")
     p.set_defaults(func=_cmd_park)

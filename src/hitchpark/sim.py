@@ -16,18 +16,21 @@ from typing import Any
 import numpy as np
 
 from .checks import InputError, check_number, check_range
-from .model.geometry import check_pose
 from .model.integrate import step_full
 from .model.kinematics import rear_axle_pose
+from .model.state import State, check_state
 from .model.vehicle import VehicleTrailer
 
-__all__ = ["BASE_COLUMNS", "SimulationResult", "State", "Trajectory", "check_state", "simulate"]
+__all__ = ["BASE_COLUMNS", "STATE_COLUMNS", "SimulationResult", "State", "Trajectory", "check_state", "simulate"]
 
 #: Longest open-loop run :func:`simulate` accepts, in samples (a day at dt = 0.1 s).
 MAX_SIM_STEPS = 864_000
 
 #: Largest |rear_speed| :func:`simulate` accepts [m/s].
 MAX_SPEED = 30.0
+
+#: The columns that follow from the state alone (:func:`state_columns`).
+STATE_COLUMNS = ("x_trailer", "y_trailer", "yaw_trailer", "yaw_vehicle", "hitch", "x_rear", "y_rear")
 
 #: Columns every trajectory has, in order.
 BASE_COLUMNS = (
@@ -42,42 +45,6 @@ BASE_COLUMNS = (
     "rear_speed",
     "front_steer",
 )
-
-
-@dataclass(frozen=True)
-class State:
-    """Configuration of the system: trailer-axle pose [m, m, rad] and hitch angle [rad]."""
-
-    x: float
-    y: float
-    yaw: float
-    hitch: float
-
-    def as_array(self) -> np.ndarray:
-        return np.array([self.x, self.y, self.yaw, self.hitch], dtype=float)
-
-    @classmethod
-    def from_array(cls, values: Iterable[float]) -> State:
-        x, y, yaw, hitch = (float(v) for v in values)
-        return cls(x, y, yaw, hitch)
-
-    def to_dict(self) -> dict[str, float]:
-        return {"x": self.x, "y": self.y, "yaw_deg": math.degrees(self.yaw), "hitch_deg": math.degrees(self.hitch)}
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> State:
-        return cls(float(data["x"]), float(data["y"]), math.radians(data["yaw_deg"]), math.radians(data["hitch_deg"]))
-
-
-def check_state(vehicle: VehicleTrailer, state: State, what: str = "start") -> None:
-    """Raise ``ValueError`` if ``state`` is not a finite pose in range or is beyond the jackknife limit."""
-    check_pose(what, state.x, state.y, state.yaw)
-    check_number(f"{what} hitch", state.hitch)
-    if abs(state.hitch) > vehicle.max_hitch:
-        raise InputError(
-            f"{what} hitch angle must be within the jackknife limit +-{math.degrees(vehicle.max_hitch):g} deg, "
-            f"got {math.degrees(state.hitch):g} deg"
-        )
 
 
 class Trajectory:

@@ -9,7 +9,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from hitchpark.control import NMPCSettings, Pose, TrailerNMPC, to_goal_frame, wrap_angle
+from hitchpark.control import NMPCSettings, TrailerNMPC
+from hitchpark.model import Pose, to_goal_frame, wrap_angle
 from hitchpark.model import (
     VehicleTrailer,
     front_steer_from_virtual,
@@ -51,7 +52,7 @@ def horizon_cost(states: np.ndarray, inputs: np.ndarray) -> float:
 def controllers() -> dict[str, TrailerNMPC]:
     vehicle = VehicleTrailer()
     return {
-        name: TrailerNMPC(vehicle, NMPCSettings(solver=solver, transcription=transcription, fallback_solver=None))
+        name: TrailerNMPC(vehicle, NMPCSettings(kind="paper", solver=solver, transcription=transcription, fallback_solver=None))
         for name, solver, transcription in (
             ("sqp/ms", "sqp", "multiple_shooting"),
             ("sqp/ss", "sqp", "single_shooting"),
@@ -159,8 +160,8 @@ def test_step_does_not_depend_on_the_world_frame(controllers, state):
     at_origin = controllers["sqp/ms"]
     at_origin.reset()
     u0 = at_origin.step(*state)
-    moved = TrailerNMPC(VehicleTrailer(), at_origin.settings, GOAL)
-    u1 = moved.step(*world(GOAL, *state[:3]), state[3])
+    at_origin.reset()
+    u1 = at_origin.step(*world(GOAL, *state[:3]), state[3], GOAL)  # the same controller serves any goal
     assert u1.ok and u0.ok
     for field in ("trailer_speed", "virtual_steer", "rear_speed", "front_steer", "cost"):
         assert getattr(u1, field) == pytest.approx(getattr(u0, field), rel=1e-7, abs=1e-8), field
@@ -209,7 +210,7 @@ def test_controller_needs_a_hitch_offset():
     ("solver", "options"), [("sqp", {"max_iter": 0}), ("ipopt", {"ipopt.max_iter": 0})], ids=["sqp", "ipopt"]
 )
 def test_solver_failure_commands_a_stop(solver, options):
-    nmpc = TrailerNMPC(VehicleTrailer(), NMPCSettings(solver=solver, fallback_solver=None, solver_options=options))
+    nmpc = TrailerNMPC(VehicleTrailer(), NMPCSettings(kind="paper", solver=solver, fallback_solver=None, solver_options=options))
     assert nmpc.fallback is None
     u = nmpc.step(10.0, 3.5, 0.0, math.radians(10.0))
     assert nmpc.solver.stats()["success"] is False  # the options do make it fail
@@ -222,7 +223,7 @@ def test_solver_failure_commands_a_stop(solver, options):
 
 def test_fallback_solver_rescues_a_failing_primary():
     nmpc = TrailerNMPC(
-        VehicleTrailer(), NMPCSettings(solver="sqp", fallback_solver="ipopt", solver_options={"max_iter": 0})
+        VehicleTrailer(), NMPCSettings(kind="paper", solver="sqp", fallback_solver="ipopt", solver_options={"max_iter": 0})
     )
     u = nmpc.step(10.0, 3.5, 0.0, 0.0)
     assert nmpc.solver.stats()["success"] is False

@@ -35,7 +35,7 @@ def as_float(value) -> float:
 
 
 def test_defaults_are_table4():
-    s = NMPCSettings()
+    s = NMPCSettings(kind="paper")
     assert s.dt == 0.1
     assert s.horizon == 10
     assert s.Q == (1.0, 10.0, 10.0)
@@ -48,7 +48,7 @@ def test_defaults_are_table4():
 
 
 def test_weights_are_stored_as_float_tuples():
-    s = NMPCSettings(Q=[1, 2, 3], R=np.array([0, 1]), P=(4, 5, 6))
+    s = NMPCSettings(kind="paper", Q=[1, 2, 3], R=np.array([0, 1]), P=(4, 5, 6))
     assert s.Q == (1.0, 2.0, 3.0) and s.R == (0.0, 1.0) and s.P == (4.0, 5.0, 6.0)
     assert all(isinstance(v, float) for v in (*s.Q, *s.R, *s.P))
 
@@ -92,7 +92,7 @@ BAD_SETTINGS = [
 @pytest.mark.parametrize(("changes", "field"), BAD_SETTINGS, ids=[str(c) for c, _ in BAD_SETTINGS])
 def test_bad_settings_raise_naming_the_field(changes, field):
     with pytest.raises(ValueError, match=field.replace(".", r"\.")):
-        NMPCSettings(**changes)
+        NMPCSettings(kind="paper", **changes)
 
 
 def test_problem_needs_a_hitch_offset():
@@ -106,7 +106,7 @@ def test_problem_needs_a_hitch_offset():
 @given(x=states, u=inputs)
 def test_discrete_dynamics_is_the_euler_step(x, u):
     vehicle = VehicleTrailer()
-    problem = TrailerParkingProblem(vehicle, NMPCSettings(dt=0.05))
+    problem = TrailerParkingProblem(vehicle, NMPCSettings(kind="paper", dt=0.05))
     got = np.asarray(problem.discrete_dynamics(x, u), dtype=float).ravel()
     np.testing.assert_allclose(got, x + 0.05 * np.asarray(trailer_rhs(vehicle, x, u)), rtol=0, atol=1e-12)
     v, steer, yaw = u[0], u[1], x[2]
@@ -143,7 +143,7 @@ def test_costs_are_the_table4_quadratic_forms(x, u):
 
 
 def test_costs_follow_the_settings(table4):
-    s = NMPCSettings(Q=(2.0, 3.0, 4.0), R=(0.5, 0.25), P=(5.0, 6.0, 7.0))
+    s = NMPCSettings(kind="paper", Q=(2.0, 3.0, 4.0), R=(0.5, 0.25), P=(5.0, 6.0, 7.0))
     problem = TrailerParkingProblem(table4, s)
     x, u = np.array([1.0, -2.0, 0.5]), np.array([-0.5, 0.2])
     assert as_float(problem.stage_cost(ca.DM(x), ca.DM(u))) == pytest.approx(2 + 12 + 1 + 0.125 + 0.01)
@@ -173,14 +173,14 @@ def test_input_bounds_are_speed_and_virtual_steer_bounds(problem, table4, hitch_
 
 def test_input_bounds_table3_example(table2):
     """Section 4.2's example: Table 2 vehicle, hitch 15 deg -> [-2.2512, 28.6479] deg."""
-    problem = TrailerParkingProblem(table2, NMPCSettings(virtual_limit=0.5))
+    problem = TrailerParkingProblem(table2, NMPCSettings(kind="paper", virtual_limit=0.5))
     u_min, u_max = problem.input_bounds(math.radians(15.0))
     assert math.degrees(u_min[1]) == pytest.approx(-2.2512, abs=1e-4)
     assert math.degrees(u_max[1]) == pytest.approx(28.6479, abs=1e-4)
 
 
 def test_input_bounds_follow_the_settings(table4):
-    problem = TrailerParkingProblem(table4, NMPCSettings(speed_min=-0.4, virtual_limit=0.2))
+    problem = TrailerParkingProblem(table4, NMPCSettings(kind="paper", speed_min=-0.4, virtual_limit=0.2))
     u_min, u_max = problem.input_bounds(0.0)
     np.testing.assert_allclose(u_min, [-0.4, -0.2])
     np.testing.assert_allclose(u_max, [0.0, 0.2])
@@ -191,7 +191,7 @@ def test_input_bounds_follow_the_settings(table4):
 
 @pytest.mark.parametrize("kind", ["multiple_shooting", "single_shooting"])
 def test_transcription_layout_and_round_trip(table4, kind):
-    problem = TrailerParkingProblem(table4, NMPCSettings(horizon=6, transcription=kind))
+    problem = TrailerParkingProblem(table4, NMPCSettings(kind="paper", horizon=6, transcription=kind))
     tr = make_transcription(problem)
     assert isinstance(tr, MultipleShooting if kind == "multiple_shooting" else SingleShooting)
     n_w = 6 * 5 + 3 if kind == "multiple_shooting" else 6 * 2
@@ -215,7 +215,7 @@ def test_transcription_layout_and_round_trip(table4, kind):
     expected = sum(xs[k] @ Q4 @ xs[k] + us[k] @ R4 @ us[k] for k in range(6)) + xs[6] @ P4 @ xs[6]
     assert as_float(f(w, x0)) == pytest.approx(expected, rel=1e-12)
 
-    lb, ub = tr.bounds(np.array([-1.0, -0.1]), np.array([0.0, 0.2]))
+    lb, ub, _, _ = tr.bounds(np.array([-1.0, -0.1]), np.array([0.0, 0.2]))
     assert lb.shape == ub.shape == (n_w,)
     inputs_lb, inputs_ub = tr.unpack(lb, x0)[1], tr.unpack(ub, x0)[1]
     np.testing.assert_array_equal(inputs_lb, np.tile([-1.0, -0.1], (6, 1)))
@@ -225,7 +225,7 @@ def test_transcription_layout_and_round_trip(table4, kind):
 
 
 def test_path_constraints_become_rows_of_g(table4):
-    problem = TrailerParkingProblem(table4, NMPCSettings(horizon=4))
+    problem = TrailerParkingProblem(table4, NMPCSettings(kind="paper", horizon=4))
     problem.path_constraints.append(lambda x, u, k: (x[1], -0.5, 0.5))
     ms = MultipleShooting(problem)
     assert ms.nlp["g"].numel() == 3 * 5 + 4

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from hitchpark.control import Pose
+from hitchpark.model import Pose
 from hitchpark.control.pure_pursuit import (
     PurePursuitSettings,
     forward_done,

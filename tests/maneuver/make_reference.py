@@ -21,7 +21,8 @@ import casadi
 import numpy
 
 from hitchpark.io import write_json
-from hitchpark.maneuver import ManeuverResult, builtin_scenarios, run_scenario
+from hitchpark.app.report import run_scenario
+from hitchpark.maneuver import ManeuverResult, builtin_scenarios
 
 REFERENCE_PATH = Path(__file__).with_name("reference.json")
 

@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 from make_reference import builtin_results
 
-from hitchpark.control import NMPCSettings, Pose, TrailerNMPC, to_goal_frame
+from hitchpark.control import NMPCSettings, TrailerNMPC
+from hitchpark.model import Pose, to_goal_frame
 from hitchpark.control.pure_pursuit import PurePursuitSettings, pure_pursuit_steer
 from hitchpark.io import to_jsonable
 from hitchpark.maneuver import (

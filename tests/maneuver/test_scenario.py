@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from hitchpark.control import NMPCSettings, Pose
+from hitchpark.control import NMPCSettings
+from hitchpark.model import Pose
 from hitchpark.control.pure_pursuit import PurePursuitSettings
 from hitchpark.maneuver import ManeuverSettings, SuccessCriteria, builtin_scenarios, load_scenario
 from hitchpark.maneuver.scenario import BUILTIN_ORDER

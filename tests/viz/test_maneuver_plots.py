@@ -14,9 +14,9 @@ from hypothesis import strategies as st
 from PIL import Image
 
 from hitchpark.control import NMPCSettings
-from hitchpark.control.nmpc import Pose
+from hitchpark.model import Pose
 from hitchpark.io import read_json, write_json
-from hitchpark.maneuver.process import ManeuverResult, ManeuverSettings, SuccessCriteria, park
+from hitchpark.maneuver import ManeuverResult, ManeuverSettings, SuccessCriteria, park
 from hitchpark.model import VehicleTrailer, hitch_point, rear_axle_pose
 from hitchpark.sim import State
 from hitchpark.viz.maneuver import animate_maneuver, body_outlines, parking_space, plot_maneuver, wheel_outlines

@@ -1,19 +1,27 @@
-"""Controllers: the trailer NMPC (Section 4) and the forward pure pursuit (Section 5)."""
+"""Controllers: the reverse NMPCs (the paper's trailer-only one, Section 4, and the full-model one) and the
+forward pure pursuit (Section 5), with their OCPs, transcriptions and solver registry."""
 
-from .nmpc import NMPCStep, Pose, TrailerNMPC, make_solver, to_goal_frame, wrap_angle
+from .full_ocp import FullParkingProblem
+from .nmpc import FullNMPC, NMPCStep, TrailerNMPC, make_nmpc
 from .ocp import NMPCSettings, TrailerParkingProblem
+from .pure_pursuit import ForwardPursuit, PurePursuitSettings
+from .solvers import SOLVERS, make_solver, register_solver
 from .transcription import MultipleShooting, SingleShooting, make_transcription
 
 __all__ = [
+    "SOLVERS",
+    "ForwardPursuit",
+    "FullNMPC",
+    "FullParkingProblem",
     "MultipleShooting",
     "NMPCSettings",
     "NMPCStep",
-    "Pose",
+    "PurePursuitSettings",
     "SingleShooting",
     "TrailerNMPC",
     "TrailerParkingProblem",
+    "make_nmpc",
     "make_solver",
     "make_transcription",
-    "to_goal_frame",
-    "wrap_angle",
+    "register_solver",
 ]

@@ -1,77 +1,46 @@
-"""The receding-horizon trailer NMPC (Section 4) and its solver back ends.
+"""Receding-horizon controllers: the paper's trailer NMPC (Section 4) and the full-model NMPC.
 
-Each step: move the trailer pose into the parking frame of the goal, bound the
-virtual steer by Eqs. (56)-(57) at the current hitch angle, warm-start from the
-shifted previous solution, solve, apply only U_0, and map it to the vehicle
-through Eqs. (44)-(45). A failed solve or a non-finite answer never reaches the
-vehicle: the step commands a stop and says why.
+Each step: move the measured pose into the parking frame of the goal (a parameter of the
+step, so one controller serves many goals and starts), warm-start from the shifted previous
+solution, solve, apply only the first move. A failed solve or a non-finite answer never
+reaches the vehicle: the step commands a stop and says why. Solvers come from the
+registry of :mod:`.solvers`: a primary, a fallback, and a last try from a cold start.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, replace
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
-from ..model.geometry import Pose, to_goal_frame, wrap_angle
-from ..model.inverse import front_steer_from_virtual, rear_speed_from_trailer_speed
+from ..checks import InputError
+from ..model.inverse import front_steer_from_virtual, rear_speed_from_trailer_speed, virtual_steer_from_front
+from ..model.kinematics import trailer_speed_from_rear_speed
+from ..model.plant import Command, Measurement
+from ..model.state import Pose, to_goal_frame
 from ..model.vehicle import VehicleTrailer
-from .ocp import NMPCSettings, TrailerParkingProblem
-from .transcription import Transcription, make_transcription
+from .full_ocp import SPEED, STEER, FullParkingProblem
+from .ocp import OCP, NMPCSettings, TrailerParkingProblem
+from .solvers import make_solver
+from .transcription import make_transcription
 
-__all__ = ["NMPCStep", "Pose", "TrailerNMPC", "make_solver", "to_goal_frame", "wrap_angle"]
-
-
-def make_solver(transcription: Transcription, settings: NMPCSettings) -> Any:
-    """A CasADi ``nlpsol`` for the transcription, quiet, with the solver named in ``settings``."""
-    if settings.solver == "ipopt":
-        opts: dict[str, Any] = {
-            "print_time": False,
-            "ipopt.print_level": 0,
-            "ipopt.sb": "yes",
-            "ipopt.tol": 1e-9,
-            "ipopt.max_iter": 300,
-            "ipopt.warm_start_init_point": "yes",
-            "ipopt.warm_start_bound_push": 1e-9,
-            "ipopt.warm_start_mult_bound_push": 1e-9,
-            "ipopt.mu_init": 1e-4,
-        }
-        name = "ipopt"
-    else:
-        opts = {
-            "print_time": False,
-            "print_header": False,
-            "print_iteration": False,
-            "print_status": False,
-            "qpsol": "qrqp",
-            "qpsol_options": {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False},
-            "hessian_approximation": "exact",
-            "convexify_strategy": "eigen-clip",
-            "max_iter": 100,
-            # Primal 1e-9 is below what the Euler equalities (terms ~10) reach in double precision: the SQP
-            # then stalls at the optimum with Search_Direction_Becomes_Too_Small. 1e-8 / 1e-8 converge.
-            "tol_pr": 1e-8,
-            "tol_du": 1e-8,
-            "error_on_fail": False,
-        }
-        name = "sqpmethod"
-    opts.update(settings.solver_options)
-    return ca.nlpsol("trailer_nmpc", name, transcription.nlp, opts)
+__all__ = ["FullNMPC", "NMPCStep", "TrailerNMPC", "make_nmpc"]
 
 
 @dataclass(frozen=True)
 class NMPCStep:
     """What one NMPC step decided.
 
-    ``trailer_speed``/``virtual_steer`` are U_0 (the virtual inputs), ``rear_speed``/
-    ``front_steer`` the vehicle command from Eqs. (44)-(45). ``ok`` is False when the
-    solver failed or gave a non-finite answer; the command is then a stop
-    (zero speed) and ``status`` says why. ``stop`` is True when U_0's speed is zero
-    (|V_T| < stop_speed): the stage is over.
+    ``rear_speed``/``front_steer`` are the vehicle command; ``trailer_speed``/``virtual_steer``
+    the same motion in the trailer's virtual inputs (the paper's U_0, or Eqs. (18) and (56) of
+    the command for the full model). ``ok`` is False when the solver failed or gave a
+    non-finite answer; the command is then a stop (zero speed, steer held) and ``status``
+    says why. ``stop`` is True when the optimal speed is zero: the stage is over.
     """
 
     trailer_speed: float
@@ -86,32 +55,31 @@ class NMPCStep:
     predicted_states: np.ndarray
     predicted_inputs: np.ndarray
 
+    @property
+    def command(self) -> Command:
+        return Command(self.rear_speed, self.front_steer)
 
-class TrailerNMPC:
-    """Receding-horizon controller for the trailer.
 
-    Parameters
-    ----------
-    vehicle : VehicleTrailer
-        The vehicle-trailer combination (needs L_H > 0).
-    settings : NMPCSettings
-        Horizon, weights, bounds, solver (defaults: Table 4).
-    goal : Pose
-        Goal trailer-axle pose in the world frame.
-    """
+class _RecedingHorizon:
+    """The solve machinery both NMPCs share: transcription, solver cascade, warm start."""
 
-    def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings | None = None, goal: Pose | None = None):
-        self.problem = TrailerParkingProblem(vehicle, settings)
+    problem: OCP
+
+    def __init__(self, vehicle: VehicleTrailer, problem: OCP):
+        vehicle.require_hitch_offset()
         self.vehicle = vehicle
-        self.settings = self.problem.settings
-        self.goal = goal or Pose()
-        self.transcription = make_transcription(self.problem)
-        self.solver = make_solver(self.transcription, self.settings)
-        fallback = self.settings.fallback_solver
+        self.problem = problem
+        self.settings = problem.settings
+        self.transcription = make_transcription(problem)
+        s = self.settings
+        equality = list(self.transcription.lbg == self.transcription.ubg)
+        try:
+            self.solver = make_solver(s.solver, self.transcription.nlp, equality, s.solver_options)
+        except RuntimeError as exc:  # CasADi refuses an unknown or ill-typed option
+            raise InputError(f"nmpc.solver_options are not accepted by {s.solver}: {exc}".splitlines()[0]) from None
+        fallback = s.fallback_solver
         self.fallback = (
-            make_solver(self.transcription, replace(self.settings, solver=fallback, solver_options={}))
-            if fallback and fallback != self.settings.solver
-            else None
+            make_solver(fallback, self.transcription.nlp, equality) if fallback and fallback != s.solver else None
         )
         self._last_inputs: np.ndarray | None = None
         self._last_states: np.ndarray | None = None
@@ -123,11 +91,12 @@ class TrailerNMPC:
         self._last_states = None
         self._last_steer = float(front_steer)
 
+    def _cold_inputs(self) -> np.ndarray:
+        raise NotImplementedError
+
     def _initial_guess(self, x0: np.ndarray, u_min: np.ndarray, u_max: np.ndarray) -> np.ndarray:
         if self._last_inputs is None:
-            # Cold start: reverse straight at half the speed bound; u = 0 would be a stationary point of the speed.
-            inputs = np.tile([0.5 * self.settings.speed_min, 0.0], (self.problem.horizon, 1))
-            states = None
+            inputs, states = self._cold_inputs(), None
         else:
             inputs = np.vstack([self._last_inputs[1:], self._last_inputs[-1:]])  # shifted previous solution
             assert self._last_states is not None
@@ -136,10 +105,11 @@ class TrailerNMPC:
         return self.transcription.guess(x0, inputs, states)
 
     def _solve(
-        self, solver: Any, x0: np.ndarray, w0: np.ndarray, lbx: np.ndarray, ubx: np.ndarray
+        self, solver: Any, x0: np.ndarray, w0: np.ndarray, bounds: tuple[np.ndarray, ...]
     ) -> tuple[bool, str, np.ndarray, float]:
+        lbx, ubx, lbg, ubg = bounds
         try:
-            sol = solver(x0=w0, p=x0, lbx=lbx, ubx=ubx, lbg=self.transcription.lbg, ubg=self.transcription.ubg)
+            sol = solver(x0=w0, p=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
             stats = solver.stats()
             ok, status = bool(stats.get("success", False)), str(stats.get("return_status", "unknown"))
             w, cost = np.asarray(sol["x"]).ravel(), float(sol["f"])
@@ -149,32 +119,77 @@ class TrailerNMPC:
             ok, status = False, "non-finite solution"
         return ok, status, w, cost
 
-    def step(self, x_trailer: float, y_trailer: float, yaw_trailer: float, hitch: float) -> NMPCStep:
-        """Solve the OCP from the current configuration and return U_0 and the vehicle command."""
-        refuse = ""
-        if not all(map(math.isfinite, (x_trailer, y_trailer, yaw_trailer, hitch))):
-            refuse = "non-finite state"
-        elif abs(hitch) > self.vehicle.max_hitch:
-            refuse = "hitch angle beyond max_hitch"  # Eqs. (44)-(45) would ask for nonsense (even driving forward)
-        if refuse:
-            empty = np.full((self.problem.horizon + 1, self.problem.n_x), np.nan)
-            return self._stop(refuse, math.nan, 0.0, empty, empty[:-1, : self.problem.n_u])
-        x0 = np.array(to_goal_frame(self.goal, x_trailer, y_trailer, yaw_trailer), dtype=float)
-        u_min, u_max = self.problem.input_bounds(hitch)  # Eqs. (56)-(57) at the current hitch angle
-        lbx, ubx = self.transcription.bounds(u_min, u_max)
+    def _solve_cascade(
+        self, x0: np.ndarray, u_min: np.ndarray, u_max: np.ndarray, bounds: tuple[np.ndarray, ...]
+    ) -> tuple[bool, str, np.ndarray, np.ndarray, float, float]:
+        """Primary solver, then the fallback, then a cold start; returns ok, status, states, inputs, cost, ms."""
         t0 = time.perf_counter()
         warm = self._initial_guess(x0, u_min, u_max)
-        ok, status, w, cost = self._solve(self.solver, x0, warm, lbx, ubx)
+        ok, status, w, cost = self._solve(self.solver, x0, warm, bounds)
         if not ok and self.fallback is not None:
             # The fast primary solver can stall where the interior-point fallback does not.
-            ok, status, w, cost = self._solve(self.fallback, x0, warm, lbx, ubx)
+            ok, status, w, cost = self._solve(self.fallback, x0, warm, bounds)
         if not ok and self._last_inputs is not None:
             # A warm start can mislead the solver; one last try from the cold guess before giving up.
             self._last_inputs = self._last_states = None
             cold = self._initial_guess(x0, u_min, u_max)
-            ok, status, w, cost = self._solve(self.fallback or self.solver, x0, cold, lbx, ubx)
+            ok, status, w, cost = self._solve(self.fallback or self.solver, x0, cold, bounds)
         solve_ms = 1e3 * (time.perf_counter() - t0)
         states, inputs = self.transcription.unpack(w, x0)
+        return ok, status, states, inputs, cost, solve_ms
+
+    def _stop(self, status: str, cost: float, solve_ms: float, states: np.ndarray, inputs: np.ndarray) -> NMPCStep:
+        self._last_inputs = self._last_states = None
+        return NMPCStep(0.0, 0.0, 0.0, self._last_steer, cost, solve_ms, False, True, status, states, inputs)
+
+    def _refuse(self, state: Sequence[float], hitch: float) -> NMPCStep | None:
+        refuse = ""
+        if not all(map(math.isfinite, state)):
+            refuse = "non-finite state"
+        elif abs(hitch) > self.vehicle.max_hitch:
+            refuse = "hitch angle beyond max_hitch"  # the model would ask for nonsense (even driving forward)
+        if not refuse:
+            return None
+        empty = np.full((self.problem.horizon + 1, self.problem.n_x), np.nan)
+        return self._stop(refuse, math.nan, 0.0, empty, empty[:-1, : self.problem.n_u])
+
+    def initial_steer(self, measurement: Measurement, goal: Pose) -> float | None:
+        """The steer this controller would like to start a stage with (None: no preference)."""
+        return None
+
+
+class TrailerNMPC(_RecedingHorizon):
+    """The paper's receding-horizon controller for the trailer alone (Eqs. 47-57).
+
+    Each step bounds the virtual steer by Eqs. (56)-(57) at the current hitch angle and maps
+    U_0 to the vehicle through Eqs. (44)-(45). It knows no actuator dynamics and no delay.
+    """
+
+    def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings | None = None):
+        super().__init__(vehicle, TrailerParkingProblem(vehicle, settings or NMPCSettings(kind="paper")))
+
+    def _cold_inputs(self) -> np.ndarray:
+        # Reverse straight at half the speed bound; u = 0 would be a stationary point of the speed.
+        return np.tile([0.5 * self.settings.speed_min, 0.0], (self.problem.horizon, 1))
+
+    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command] = ()) -> NMPCStep:
+        """One step from a measurement (the paper's controller ignores the actuators and the delay)."""
+        s = measurement.state
+        return self.step(s.x, s.y, s.yaw, s.hitch, goal)
+
+    def step(
+        self, x_trailer: float, y_trailer: float, yaw_trailer: float, hitch: float, goal: Pose | None = None
+    ) -> NMPCStep:
+        """Solve the OCP from the current configuration and return U_0 and the vehicle command."""
+        refused = self._refuse((x_trailer, y_trailer, yaw_trailer, hitch), hitch)
+        if refused is not None:
+            return refused
+        x0 = np.array(to_goal_frame(goal or Pose(), x_trailer, y_trailer, yaw_trailer), dtype=float)
+        assert isinstance(self.problem, TrailerParkingProblem)
+        u_min, u_max = self.problem.input_bounds(hitch)  # Eqs. (56)-(57) at the current hitch angle
+        ok, status, states, inputs, cost, solve_ms = self._solve_cascade(
+            x0, u_min, u_max, self.transcription.bounds(u_min, u_max)
+        )
         if not ok:
             return self._stop(status, cost, solve_ms, states, inputs)
         v_t, d_t = inputs[0]
@@ -192,6 +207,93 @@ class TrailerNMPC:
         self._last_steer = front
         return NMPCStep(v_t, d_t, rear, front, cost, solve_ms, True, stop, status, states, inputs)
 
-    def _stop(self, status: str, cost: float, solve_ms: float, states: np.ndarray, inputs: np.ndarray) -> NMPCStep:
-        self._last_inputs = self._last_states = None
-        return NMPCStep(0.0, 0.0, 0.0, self._last_steer, cost, solve_ms, False, True, status, states, inputs)
+
+class FullNMPC(_RecedingHorizon):
+    """The full-model NMPC (:mod:`.full_ocp`): limits on the whole horizon, the command delay predicted out.
+
+    ``act`` takes the measurement (pose, hitch, actual steer and speed) and the commands
+    issued but not yet acted on (the known delay), predicts the state at which the new
+    command will act, solves, and commands the planned steer and speed one sample ahead.
+    """
+
+    def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings | None = None):
+        settings = settings or NMPCSettings()
+        if settings.kind != "full":
+            raise InputError(f"FullNMPC needs nmpc.kind 'full', got {settings.kind!r}")
+        super().__init__(vehicle, FullParkingProblem(vehicle, settings))
+        x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
+        # One controller sample of the model: for the commands in flight and for the first move of a plan.
+        self._model_step = ca.Function("model_step", [x, u], [self.problem.discrete_dynamics(x, u, settings.dt)])
+
+    def _cold_inputs(self) -> np.ndarray:
+        # Accelerate in reverse, straight: from standing still a zero input sees no gain in moving.
+        n = self.problem.horizon
+        ramp = max(
+            1, round(0.5 * abs(self.settings.speed_min) / (self.vehicle.max_accel * self.settings.prediction_dt))
+        )
+        accel = np.where(np.arange(n) < ramp, -self.vehicle.max_accel, 0.0)
+        return np.column_stack([np.zeros(n), accel])
+
+    def _state(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> np.ndarray:
+        """Measured state in the parking frame, predicted over the commands still in flight."""
+        s = measurement.state
+        x = np.array(
+            [*to_goal_frame(goal, s.x, s.y, s.yaw), s.hitch, measurement.front_steer, measurement.rear_speed],
+            dtype=float,
+        )
+        v, dt = self.vehicle, self.settings.dt
+        for cmd in in_flight:
+            rate = np.clip((cmd.front_steer - x[STEER]) / dt, -v.max_steer_rate, v.max_steer_rate)
+            accel = np.clip((cmd.rear_speed - x[SPEED]) / dt, -v.max_accel, v.max_accel)
+            x = np.asarray(self._model_step(x, [rate, accel])).ravel()
+        return x
+
+    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command] = ()) -> NMPCStep:
+        x0 = self._state(measurement, goal, in_flight)
+        refused = self._refuse(x0, x0[3])
+        if refused is not None:
+            return refused
+        return self._plan(x0)
+
+    def initial_steer(self, measurement: Measurement, goal: Pose) -> float | None:
+        """The steer the plan would start with if the wheels could be set freely, chosen standing still."""
+        x0 = self._state(measurement, goal, ())
+        if self._refuse(x0, x0[3]) is not None:
+            return None
+        step = self._plan(x0, free_steer=True)
+        self.reset(measurement.front_steer)
+        return float(step.predicted_states[0, STEER]) if step.ok else None
+
+    def _plan(self, x0: np.ndarray, free_steer: bool = False) -> NMPCStep:
+        assert isinstance(self.problem, FullParkingProblem)
+        v = self.vehicle
+        u_min, u_max = self.problem.input_bounds()
+        free = {STEER: (-v.max_steer, v.max_steer)} if free_steer else None
+        ok, status, states, inputs, cost, solve_ms = self._solve_cascade(
+            x0, u_min, u_max, self.transcription.bounds(u_min, u_max, free)
+        )
+        if not ok:
+            return self._stop(status, cost, solve_ms, states, inputs)
+        first = x0 + self.settings.dt * np.concatenate([np.zeros(4), inputs[0]])  # the rates held for one sample
+        steer = float(np.clip(first[STEER], -v.max_steer, v.max_steer))
+        speed = float(np.clip(first[SPEED], self.settings.speed_min, self.settings.speed_max))
+        if not (math.isfinite(steer) and math.isfinite(speed)):
+            return self._stop("non-finite vehicle command", cost, solve_ms, states, inputs)
+        stop = abs(speed) < self.settings.stop_speed and abs(x0[SPEED]) < self.settings.stop_speed
+        self._last_inputs, self._last_states = inputs, states
+        if stop:
+            speed = 0.0
+        self._last_steer = steer
+        hitch = float(x0[3])
+        trailer_speed = float(trailer_speed_from_rear_speed(v, hitch, speed, steer))  # Eq. (18)
+        virtual = float(virtual_steer_from_front(v, hitch, steer))  # Eq. (56)
+        return NMPCStep(trailer_speed, virtual, speed, steer, cost, solve_ms, True, stop, status, states, inputs)
+
+
+#: The NMPC of each ``NMPCSettings.kind``.
+NMPC_CLASSES: dict[str, type[TrailerNMPC] | type[FullNMPC]] = {"paper": TrailerNMPC, "full": FullNMPC}
+
+
+def make_nmpc(vehicle: VehicleTrailer, settings: NMPCSettings) -> TrailerNMPC | FullNMPC:
+    """The reverse controller that ``settings.kind`` names."""
+    return NMPC_CLASSES[settings.kind](vehicle, settings)

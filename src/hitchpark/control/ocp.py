@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import casadi as ca
 import numpy as np
@@ -24,7 +24,7 @@ from ..model.inverse import virtual_steer_bounds
 from ..model.kinematics import TRAILER_INPUT, TRAILER_STATE, trailer_rhs
 from ..model.vehicle import VehicleTrailer
 
-__all__ = ["NMPCSettings", "PathConstraint", "TrailerParkingProblem"]
+__all__ = ["KIND_DEFAULTS", "NMPC_KINDS", "OCP", "NMPCSettings", "PathConstraint", "TrailerParkingProblem"]
 
 
 def _diag(name: str, values: Sequence[float], size: int, positive: bool) -> tuple[float, ...]:
@@ -38,82 +38,157 @@ def _diag(name: str, values: Sequence[float], size: int, positive: bool) -> tupl
     return tuple(check_range(f"{name}[{i}]", v, 0.0, low_open=low_open) for i, v in enumerate(items))
 
 
+#: Kinds of NMPC: the paper's trailer-only OCP (Eqs. 47-57) and the full-model OCP (:mod:`.full_ocp`).
+NMPC_KINDS = ("full", "paper")
+
+#: Per kind: horizon and the diagonals of Q (stage), R (input), P (terminal); sizes are the kind's states/inputs.
+KIND_DEFAULTS: dict[str, dict[str, Any]] = {
+    # Table 4.
+    "paper": {"horizon": 10, "Q": (1.0, 10.0, 10.0), "R": (0.0, 0.1), "P": (1.0, 10.0, 10.0), "solver": "sqp"},
+    # (x, y, yaw, hitch, steer, speed), (steer rate, acceleration); chosen by measured success (README).
+    "full": {
+        "horizon": 15,
+        "prediction_dt": 0.3,
+        "solver": "fatrop",
+        "Q": (1.0, 10.0, 10.0, 0.5, 0.01, 0.01),
+        "R": (0.05, 0.05),
+        "P": (10.0, 100.0, 100.0, 5.0, 0.1, 0.1),
+    },
+}
+
+
 @dataclass(frozen=True)
 class NMPCSettings:
-    """Settings of the trailer NMPC. Defaults are the paper's Table 4.
+    """Settings of the reverse NMPC. ``kind="paper"`` gives the paper's Table 4 controller.
 
     Parameters
     ----------
+    kind : str
+        ``"full"`` (default): the full model with the hitch angle, the steer angle and the speed as
+        states and the steer rate and acceleration as inputs, the steer, steer-rate, acceleration
+        and jackknife limits on the whole horizon, the command delay predicted out. ``"paper"``: the
+        trailer-only OCP of Eqs. (47)-(57), its inputs mapped to the vehicle by Eqs. (44)-(45).
     dt : float
-        Sample time d_t [s] of the Euler model, Eq. (48), and of the controller.
-    horizon : int
-        Prediction/control horizon N [steps].
-    Q, P : tuple of 3 floats
-        Diagonals of the stage and terminal state weights on (x, y, yaw) [1/m^2, 1/m^2, 1/rad^2], Eq. (49).
-    R : tuple of 2 floats
-        Diagonal of the input weight on (trailer speed, virtual steer), Eq. (49).
+        Sample time d_t [s] of the controller (and of the paper's prediction model, Eq. 48).
+    prediction_dt : float or None
+        Step of the full OCP's prediction [s] (None: ``dt``); a few coarse steps see seconds ahead,
+        where the hitch angle's response to the steer plays out. The command is the plan's first
+        ``dt`` (full kind).
+    horizon : int or None
+        Prediction/control horizon N [steps]; None: the kind's default (paper 10, full 20).
+    Q, P : tuple of floats or None
+        Diagonals of the stage and terminal state weights, Eq. (49): on (x, y, yaw) for the paper's
+        OCP [1/m^2, 1/m^2, 1/rad^2], on (x, y, yaw, hitch, steer, speed) for the full one. None: the kind's.
+    R : tuple of floats or None
+        Diagonal of the input weight: on (trailer speed, virtual steer) for the paper's OCP, on
+        (steer rate, acceleration) for the full one. None: the kind's.
     speed_min, speed_max : float
-        Trailer-speed bounds V_T,min, V_T,max [m/s]; the NMPC only reverses.
+        Speed bounds [m/s]; the NMPC only reverses. The paper's bound the trailer speed V_T, the full
+        OCP's the rear-axle speed V_R.
     virtual_limit : float
-        |delta_T| <= virtual_limit [rad]: [delta_T,lb2, delta_T,ub2] of Eq. (57).
+        |delta_T| <= virtual_limit [rad]: [delta_T,lb2, delta_T,ub2] of Eq. (57) (paper kind).
+    hitch_margin : float
+        The full OCP keeps |hitch| <= max_hitch - hitch_margin over the whole horizon [rad] (full kind).
     stop_speed : float
-        A reverse stage ends when the optimal |V_T,0| falls below this [m/s]
-        ("the trailer speed in the solution becomes zero", Section 4.1). The
-        solver's own tolerance is ~1e-8, so 1e-3 m/s (1 mm per 1 s) separates a
-        real zero from the last fractional approach step, which is larger.
+        A reverse stage ends when the optimal speed falls below this [m/s] ("the trailer speed in the
+        solution becomes zero", Section 4.1). The solver's own tolerance is ~1e-8, so 1e-3 m/s (1 mm per
+        1 s) separates a real zero from the last fractional approach step, which is larger.
     max_steps : int
         A reverse stage that has not stopped after this many steps ends as stalled.
-    solver : str
-        ``"sqp"`` (CasADi sqpmethod with the qrqp QP solver, exact Hessian, fast) or ``"ipopt"``
-        (interior point).
+    solver : str or None
+        A registered solver (:mod:`.solvers`): ``"sqp"`` (CasADi sqpmethod with the qrqp QP solver, exact
+        Hessian; the paper kind's default), ``"fatrop"`` (structure-exploiting interior point; the full
+        kind's default) or ``"ipopt"`` (interior point). None: the kind's.
     fallback_solver : str or None
-        Solver tried when the first one fails (``"ipopt"``, ``"sqp"`` or None); only if both fail,
-        and a retry from a cold start fails too, does the step command a stop.
+        Solver tried when the first one fails; only if both fail, and a retry from a cold start fails
+        too, does the step command a stop.
     transcription : str
-        ``"multiple_shooting"`` (states and inputs are unknowns) or ``"single_shooting"`` (inputs only).
+        ``"multiple_shooting"`` (states and inputs are unknowns) or ``"single_shooting"`` (inputs only;
+        paper kind only).
     solver_options : dict
-        Extra options passed to CasADi's ``nlpsol`` on top of the defaults.
+        Extra options passed to CasADi's ``nlpsol`` on top of the defaults (part of equality).
     """
 
+    kind: str = "full"
     dt: float = 0.1
-    horizon: int = 10
-    Q: tuple[float, float, float] = (1.0, 10.0, 10.0)
-    R: tuple[float, float] = (0.0, 0.1)
-    P: tuple[float, float, float] = (1.0, 10.0, 10.0)
+    prediction_dt: float | None = None
+    horizon: int | None = None
+    Q: tuple[float, ...] | None = None
+    R: tuple[float, ...] | None = None
+    P: tuple[float, ...] | None = None
     speed_min: float = -1.0
     speed_max: float = 0.0
     virtual_limit: float = 0.5
+    hitch_margin: float = math.radians(5.0)
     stop_speed: float = 1e-3
     max_steps: int = 1500
-    solver: str = "sqp"
+    solver: str | None = None
     fallback_solver: str | None = "ipopt"
     transcription: str = "multiple_shooting"
-    solver_options: dict[str, Any] = field(default_factory=dict, hash=False, compare=False)
+    solver_options: dict[str, Any] = field(default_factory=dict, hash=False)
 
     def __post_init__(self) -> None:
+        from .solvers import solver_names
+
         def put(name: str, value: Any) -> None:
             object.__setattr__(self, name, value)
 
+        if self.kind not in NMPC_KINDS:
+            raise InputError(f"nmpc.kind must be one of {', '.join(NMPC_KINDS)}, got {self.kind!r}")
+        defaults = KIND_DEFAULTS[self.kind]
+        n_x, n_u = len(defaults["Q"]), len(defaults["R"])
         put("dt", check_range("nmpc.dt", self.dt, 0.0, 1.0, low_open=True, unit="s"))
-        put("horizon", check_int("nmpc.horizon", self.horizon, 1, 500))
+        if self.prediction_dt is None:
+            put("prediction_dt", defaults.get("prediction_dt", self.dt))
+        put("prediction_dt", check_range("nmpc.prediction_dt", self.prediction_dt, self.dt, 2.0, unit="s (>= dt)"))
+        put("horizon", check_int("nmpc.horizon", defaults["horizon"] if self.horizon is None else self.horizon, 1, 500))
         put("max_steps", check_int("nmpc.max_steps", self.max_steps, 1, 1_000_000))
-        put("Q", _diag("nmpc.Q", self.Q, 3, positive=True))
-        put("P", _diag("nmpc.P", self.P, 3, positive=True))
-        put("R", _diag("nmpc.R", self.R, 2, positive=False))
+        # Q, P > 0 as Eq. (49) asks for the pose; R may have zeros (Table 4: R = diag(0, 0.1)).
+        put("Q", _diag("nmpc.Q", defaults["Q"] if self.Q is None else self.Q, n_x, positive=self.kind == "paper"))
+        put("P", _diag("nmpc.P", defaults["P"] if self.P is None else self.P, n_x, positive=self.kind == "paper"))
+        put("R", _diag("nmpc.R", defaults["R"] if self.R is None else self.R, n_u, positive=False))
         put("speed_min", check_range("nmpc.speed_min", self.speed_min, -10.0, 0.0, high_open=True, unit="m/s"))
         # The stage ends when the optimal speed is zero (Section 4.1): zero must be admissible.
         put("speed_max", check_range("nmpc.speed_max", self.speed_max, 0.0, 0.0, unit="m/s (the stop rule needs it)"))
         lim = check_range("nmpc.virtual_limit", self.virtual_limit, 0.0, math.pi / 2, low_open=True, high_open=True)
         put("virtual_limit", lim)
+        put("hitch_margin", check_range("nmpc.hitch_margin", self.hitch_margin, 0.0, math.radians(30.0), unit="rad"))
         put("stop_speed", check_range("nmpc.stop_speed", self.stop_speed, 0.0, 0.1, low_open=True, unit="m/s"))
-        if self.solver not in ("ipopt", "sqp"):
-            raise InputError(f"nmpc.solver must be 'ipopt' or 'sqp', got {self.solver!r}")
-        if self.fallback_solver not in ("ipopt", "sqp", None):
-            raise InputError(f"nmpc.fallback_solver must be 'ipopt', 'sqp' or none, got {self.fallback_solver!r}")
+        names = solver_names()
+        if self.solver is None:
+            put("solver", defaults["solver"])
+        if self.solver not in names:
+            raise InputError(f"nmpc.solver must be one of {', '.join(names)}, got {self.solver!r}")
+        if self.fallback_solver is not None and self.fallback_solver not in names:
+            raise InputError(
+                f"nmpc.fallback_solver must be one of {', '.join(names)} or none, got {self.fallback_solver!r}"
+            )
         if self.transcription not in ("multiple_shooting", "single_shooting"):
             raise InputError(
                 f"nmpc.transcription must be 'multiple_shooting' or 'single_shooting', got {self.transcription!r}"
             )
+        if not isinstance(self.solver_options, dict):
+            raise InputError(f"nmpc.solver_options must be a table of CasADi options, got {self.solver_options!r}")
+
+
+class OCP(Protocol):
+    """What a transcription needs of an optimal control problem (the paper's or the full model's)."""
+
+    settings: NMPCSettings
+    n_x: int
+    n_u: int
+    path_constraints: list[PathConstraint]
+
+    @property
+    def horizon(self) -> int: ...
+
+    def discrete_dynamics(self, x: Any, u: Any) -> Any: ...
+
+    def stage_cost(self, x: Any, u: Any) -> Any: ...
+
+    def terminal_cost(self, x: Any) -> Any: ...
+
+    def state_bounds(self) -> tuple[np.ndarray, np.ndarray] | None: ...
 
 
 #: An extra constraint on stage k: ``(x_k, u_k, k) -> (expr, lower, upper)``, CasADi expressions.
@@ -139,7 +214,11 @@ class TrailerParkingProblem:
     def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings | None = None):
         vehicle.require_hitch_offset()
         self.vehicle = vehicle
-        self.settings = settings or NMPCSettings()
+        self.settings = settings or NMPCSettings(kind="paper")
+        if self.settings.kind != "paper":
+            raise InputError(
+                f"TrailerParkingProblem is the paper's OCP: it needs nmpc.kind 'paper', got {self.settings.kind!r}"
+            )
         self.path_constraints: list[PathConstraint] = []
         s = self.settings
         self._Q = ca.diag(ca.DM(s.Q))
@@ -161,6 +240,10 @@ class TrailerParkingProblem:
     def terminal_cost(self, x: Any) -> Any:
         """X_N^T P X_N, Eq. (49)."""
         return ca.bilin(self._P, x, x)
+
+    def state_bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Bounds on X_1..X_N: none in the paper's OCP (Eq. 50 bounds only the inputs)."""
+        return None
 
     def input_bounds(self, hitch: float) -> tuple[np.ndarray, np.ndarray]:
         """U_min, U_max at the current hitch angle: speed bounds and Eqs. (56)-(57)."""

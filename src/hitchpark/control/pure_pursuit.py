@@ -14,16 +14,20 @@ threshold from the goal along the line.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..checks import check_range
-from ..model.geometry import Pose, to_goal_frame, wrap_angle
-from ..model.kinematics import rear_axle_pose
+from ..model.inverse import virtual_steer_from_front
+from ..model.kinematics import rear_axle_pose, trailer_speed_from_rear_speed
+from ..model.plant import Command, Measurement
+from ..model.state import Pose, to_goal_frame, wrap_angle
 from ..model.vehicle import VehicleTrailer
+from .nmpc import NMPCStep
 
-__all__ = ["PurePursuitSettings", "forward_done", "forward_steer_limit", "pure_pursuit_steer"]
+__all__ = ["ForwardPursuit", "PurePursuitSettings", "forward_done", "forward_steer_limit", "pure_pursuit_steer"]
 
 
 @dataclass(frozen=True)
@@ -46,6 +50,10 @@ class PurePursuitSettings:
         in mid-turn, leaving the next reverse stage misaligned (see the README).
     max_distance : float
         Give up (stalled) after driving this far forward [m].
+    length_tolerance : float
+        Relative error of L_H and L_T the forward steer cap must survive (0.2: the real lengths may be
+        up to 20% longer than the model's), in [0, 1). Used with rate limits (the full process); the
+        paper's process caps with the nominal lengths.
     """
 
     lookahead: float = 3.0
@@ -54,8 +62,11 @@ class PurePursuitSettings:
     distance_threshold: float = 8.0
     orientation_threshold: float = math.radians(1.0)
     max_distance: float = 100.0
+    length_tolerance: float = 0.2
 
     def __post_init__(self) -> None:
+        tol = check_range("forward.length_tolerance", self.length_tolerance, 0.0, 1.0, high_open=True)
+        object.__setattr__(self, "length_tolerance", tol)
         for name in (
             "lookahead",
             "speed",
@@ -67,22 +78,29 @@ class PurePursuitSettings:
             object.__setattr__(self, name, check_range(f"forward.{name}", getattr(self, name), 0.0, low_open=True))
 
 
-def forward_steer_limit(vehicle: VehicleTrailer, margin: float = math.radians(1.0)) -> float:
+def forward_steer_limit(
+    vehicle: VehicleTrailer, margin: float = math.radians(1.0), length_tolerance: float = 0.0
+) -> float:
     """Largest forward steer [rad] whose steady hitch angle stays ``margin`` inside ``max_hitch``.
 
     Driving forward with a held steer delta, the hitch angle settles where the
     trailer turns as fast as the vehicle (Eq. 21 = Eq. 24):
     tan(delta) = sin(h) / (L_T / L + (L_H / L) cos(h)). At h = max_hitch - margin, with
     |delta| no larger than this, the hitch rate points back inwards, so a forward
-    stage can never jackknife. Within ``max_steer``.
+    stage can never jackknife. Within ``max_steer``. Longer L_H and L_T than the model's give a
+    larger steady hitch angle for the same steer, so the cap assumes both ``length_tolerance``
+    (relative) longer: robust to a tape-measure error of that size.
     """
     h = max(vehicle.max_hitch - margin, 0.5 * vehicle.max_hitch)
-    L, L_H, L_T = vehicle.wheelbase, vehicle.hitch_offset, vehicle.trailer_length
+    grow = 1.0 + length_tolerance
+    L, L_H, L_T = vehicle.wheelbase, grow * vehicle.hitch_offset, grow * vehicle.trailer_length
     return min(vehicle.max_steer, math.atan(math.sin(h) / (L_T / L + L_H / L * math.cos(h))))
 
 
-def pure_pursuit_steer(vehicle: VehicleTrailer, goal: Pose, settings: PurePursuitSettings, state: np.ndarray) -> float:
-    """Front steer [rad] that pursues the goal line forward, within :func:`forward_steer_limit`."""
+def pure_pursuit_steer(
+    vehicle: VehicleTrailer, goal: Pose, settings: PurePursuitSettings, state: np.ndarray, limit: float | None = None
+) -> float:
+    """Front steer [rad] that pursues the goal line forward, within ``limit`` (default :func:`forward_steer_limit`)."""
     x_r, y_r, yaw_v = rear_axle_pose(vehicle, *state)
     _, gy, gyaw = to_goal_frame(goal, x_r, y_r, yaw_v)
     ld = settings.lookahead
@@ -91,7 +109,7 @@ def pure_pursuit_steer(vehicle: VehicleTrailer, goal: Pose, settings: PurePursui
     dx = math.sqrt(max(ld * ld - gy * gy, 0.0))
     distance = math.hypot(dx, float(gy))
     alpha = float(wrap_angle(math.atan2(-gy, dx) - float(gyaw)))
-    limit = forward_steer_limit(vehicle)
+    limit = forward_steer_limit(vehicle) if limit is None else limit
     if abs(alpha) > math.pi / 2:
         # The point is behind the vehicle (it faces away from the line's direction): full lock towards it,
         # where sin(alpha) would fade to zero and drive straight on.
@@ -108,3 +126,59 @@ def forward_done(goal: Pose, settings: PurePursuitSettings, state: np.ndarray) -
         and float(gx) > settings.distance_threshold
         and abs(float(gyaw)) < settings.orientation_threshold
     )
+
+
+class ForwardPursuit:
+    """The forward repositioning controller: pure pursuit of the goal line (Section 5).
+
+    With ``rate_limited`` (the full process) its commands respect the vehicle's steer-rate and
+    acceleration limits and its steer cap survives ``settings.length_tolerance`` of length
+    error; it asks to start with the pursuit's steer, set while standing still. Without (the
+    paper's process) it commands the pursuit steer and the speed at once, capped with the
+    nominal lengths.
+    """
+
+    def __init__(self, vehicle: VehicleTrailer, settings: PurePursuitSettings, dt: float, rate_limited: bool):
+        self.vehicle, self.settings, self.dt, self.rate_limited = vehicle, settings, dt, rate_limited
+        self.limit = forward_steer_limit(vehicle, length_tolerance=settings.length_tolerance if rate_limited else 0.0)
+        self._last = Command(0.0, 0.0)
+
+    @property
+    def max_steps(self) -> int:
+        """Steps of the forward distance budget at the pursuit speed."""
+        return math.ceil(self.settings.max_distance / (self.settings.speed * self.dt) - 1e-9)
+
+    def reset(self, front_steer: float = 0.0) -> None:
+        self._last = Command(0.0, float(front_steer))
+
+    def initial_steer(self, measurement: Measurement, goal: Pose) -> float | None:
+        if not self.rate_limited:
+            return None
+        return pure_pursuit_steer(self.vehicle, goal, self.settings, measurement.state.as_array(), self.limit)
+
+    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command] = ()) -> NMPCStep:
+        state = measurement.state.as_array()
+        v = self.vehicle
+        done = forward_done(goal, self.settings, state)
+        steer = pure_pursuit_steer(v, goal, self.settings, state, self.limit)
+        speed = 0.0 if done else self.settings.speed
+        if self.rate_limited:
+            step_steer, step_speed = v.max_steer_rate * self.dt, v.max_accel * self.dt
+            steer = float(np.clip(steer, self._last.front_steer - step_steer, self._last.front_steer + step_steer))
+            speed = float(np.clip(speed, self._last.rear_speed - step_speed, self._last.rear_speed + step_speed))
+        if not done:
+            self._last = Command(speed, steer)
+        hitch = state[3]
+        return NMPCStep(
+            float(trailer_speed_from_rear_speed(v, hitch, speed, steer)),  # Eq. (18)
+            float(virtual_steer_from_front(v, hitch, steer)),  # Eq. (56)
+            speed,
+            steer,
+            math.nan,
+            math.nan,
+            True,
+            done,
+            "repositioned" if done else "",
+            np.zeros((0, 0)),
+            np.zeros((0, 0)),
+        )

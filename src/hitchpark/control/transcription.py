@@ -14,7 +14,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .ocp import TrailerParkingProblem
+from .ocp import OCP
 
 __all__ = ["MultipleShooting", "SingleShooting", "Transcription", "make_transcription"]
 
@@ -26,11 +26,17 @@ class Transcription:
     lbg: np.ndarray
     ubg: np.ndarray
 
-    def __init__(self, problem: TrailerParkingProblem):
+    def __init__(self, problem: OCP):
         self.problem = problem
 
-    def bounds(self, u_min: np.ndarray, u_max: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Bounds on the decision vector given input bounds (same for all k, Eq. 50)."""
+    def bounds(
+        self, u_min: np.ndarray, u_max: np.ndarray, free_initial: dict[int, tuple[float, float]] | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``lbx, ubx, lbg, ubg`` given input bounds (the same for all k, Eq. 50) and the problem's state bounds.
+
+        ``free_initial`` frees components of X_0 from the measured state, within the given bounds
+        (the steer the next stage would like to start with, chosen while standing still).
+        """
         raise NotImplementedError
 
     def guess(self, x0: np.ndarray, inputs: np.ndarray, states: np.ndarray | None = None) -> np.ndarray:
@@ -61,7 +67,7 @@ def _flat(values: list[Any]) -> np.ndarray:
 class MultipleShooting(Transcription):
     """w = [X_0, U_0, X_1, U_1, ..., X_N]; X_0 = p and X_{k+1} = g(X_k, U_k) as equalities."""
 
-    def __init__(self, problem: TrailerParkingProblem):
+    def __init__(self, problem: OCP):
         super().__init__(problem)
         N, nx, nu = problem.horizon, problem.n_x, problem.n_u
         p = ca.SX.sym("x0", nx)
@@ -72,7 +78,7 @@ class MultipleShooting(Transcription):
             w += [xs[k], us[k]]
         w.append(xs[N])
         cost = sum(problem.stage_cost(xs[k], us[k]) for k in range(N)) + problem.terminal_cost(xs[N])  # Eq. (49)
-        g: list[Any] = [xs[0] - p]
+        g: list[Any] = [xs[0] - p]  # X_0 = p: the first nx constraints
         g += [xs[k + 1] - problem.discrete_dynamics(xs[k], us[k]) for k in range(N)]  # Eq. (48)
         n_eq = nx * (N + 1)
         pg, plb, pub = self._path_constraints(xs, us)
@@ -84,12 +90,24 @@ class MultipleShooting(Transcription):
         self._u_idx = np.array([[k * stride + nx + i for i in range(nu)] for k in range(N)])
         self._n = stride * N + nx
 
-    def bounds(self, u_min: np.ndarray, u_max: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def bounds(
+        self, u_min: np.ndarray, u_max: np.ndarray, free_initial: dict[int, tuple[float, float]] | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         lb = np.full(self._n, -np.inf)
         ub = np.full(self._n, np.inf)
         lb[self._u_idx] = u_min
         ub[self._u_idx] = u_max
-        return lb, ub
+        x_bounds = self.problem.state_bounds()
+        if x_bounds is not None:
+            lb[self._x_idx[1:]] = x_bounds[0]
+            ub[self._x_idx[1:]] = x_bounds[1]
+        lbg, ubg = self.lbg, self.ubg
+        if free_initial:
+            lbg, ubg = lbg.copy(), ubg.copy()
+            for i, (lo, hi) in free_initial.items():
+                lbg[i], ubg[i] = -np.inf, np.inf  # X_0[i] - p[i] unconstrained ...
+                lb[self._x_idx[0, i]], ub[self._x_idx[0, i]] = lo, hi  # ... X_0[i] within its bounds
+        return lb, ub, lbg, ubg
 
     def guess(self, x0: np.ndarray, inputs: np.ndarray, states: np.ndarray | None = None) -> np.ndarray:
         if states is None:
@@ -109,9 +127,13 @@ class MultipleShooting(Transcription):
 
 
 class SingleShooting(Transcription):
-    """w = [U_0, ..., U_{N-1}]; the states are rolled out from p, Eq. (51)."""
+    """w = [U_0, ..., U_{N-1}]; the states are rolled out from p, Eq. (51).
 
-    def __init__(self, problem: TrailerParkingProblem):
+    The problem's state bounds become constraints on the rolled-out states (only the
+    components with a finite bound), so the NLP stays small: the inputs alone.
+    """
+
+    def __init__(self, problem: OCP):
         super().__init__(problem)
         N, nx, nu = problem.horizon, problem.n_x, problem.n_u
         p = ca.SX.sym("x0", nx)
@@ -121,14 +143,27 @@ class SingleShooting(Transcription):
             xs.append(problem.discrete_dynamics(xs[k], us[k]))  # Eq. (48)
         cost = sum(problem.stage_cost(xs[k], us[k]) for k in range(N)) + problem.terminal_cost(xs[N])  # Eq. (51)
         pg, plb, pub = self._path_constraints(xs, us)
+        sg, slb, sub = [], [], []
+        x_bounds = problem.state_bounds()
+        if x_bounds is not None:
+            rows = [i for i in range(nx) if np.isfinite(x_bounds[0][i]) or np.isfinite(x_bounds[1][i])]
+            for k in range(1, N + 1):
+                sg += [xs[k][i] for i in rows]
+                slb += [x_bounds[0][i] for i in rows]
+                sub += [x_bounds[1][i] for i in rows]
         w = ca.vertcat(*us)
-        self.nlp = {"x": w, "p": p, "f": cost, "g": ca.vertcat(*pg)}
-        self.lbg, self.ubg = _flat(plb), _flat(pub)
+        self.nlp = {"x": w, "p": p, "f": cost, "g": ca.vertcat(*sg, *pg)}
+        self.lbg = np.concatenate([np.array(slb, dtype=float), _flat(plb)])
+        self.ubg = np.concatenate([np.array(sub, dtype=float), _flat(pub)])
         self._rollout = ca.Function("rollout", [w, p], [ca.horzcat(*xs).T])
         self._N, self._nu = N, nu
 
-    def bounds(self, u_min: np.ndarray, u_max: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return np.tile(u_min, self._N), np.tile(u_max, self._N)
+    def bounds(
+        self, u_min: np.ndarray, u_max: np.ndarray, free_initial: dict[int, tuple[float, float]] | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        if free_initial:
+            raise ValueError("single shooting cannot free the initial state: it is the parameter")
+        return np.tile(u_min, self._N), np.tile(u_max, self._N), self.lbg, self.ubg
 
     def guess(self, x0: np.ndarray, inputs: np.ndarray, states: np.ndarray | None = None) -> np.ndarray:
         return np.asarray(inputs, dtype=float).ravel()
@@ -138,7 +173,7 @@ class SingleShooting(Transcription):
         return np.asarray(self._rollout(w, x0)), w.reshape(self._N, self._nu)
 
 
-def make_transcription(problem: TrailerParkingProblem) -> Transcription:
+def make_transcription(problem: OCP) -> Transcription:
     """The transcription named by ``problem.settings.transcription``."""
     kind = problem.settings.transcription
     return {"multiple_shooting": MultipleShooting, "single_shooting": SingleShooting}[kind](problem)

@@ -1,28 +1,22 @@
-"""The parking maneuver: the 3-stage process (Fig. 7), scenarios (Section 6.1) and their reports."""
+"""The parking maneuver: the closed loop (plant, stages, outcome), its result, and scenarios."""
 
-from .process import (
-    MANEUVER_COLUMNS,
-    ManeuverResult,
-    ManeuverSettings,
-    StageResult,
-    SuccessCriteria,
-    park,
-)
-from .report import reproduce, run_scenario, save_maneuver, table5
+from .process import park
+from .result import MANEUVER_COLUMNS, ManeuverResult, ManeuverSettings, Outcome, StageResult, SuccessCriteria
 from .scenario import Scenario, builtin_scenarios, load_scenario
+from .stages import PROCESSES, Stage, make_stages
 
 __all__ = [
     "MANEUVER_COLUMNS",
+    "PROCESSES",
     "ManeuverResult",
     "ManeuverSettings",
+    "Outcome",
     "Scenario",
+    "Stage",
     "StageResult",
     "SuccessCriteria",
     "builtin_scenarios",
     "load_scenario",
+    "make_stages",
     "park",
-    "reproduce",
-    "run_scenario",
-    "save_maneuver",
-    "table5",
 ]

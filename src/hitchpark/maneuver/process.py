@@ -1,230 +1,186 @@
-"""The 3-stage parking process (Fig. 7): reverse (NMPC), forward (pure pursuit), reverse again.
+"""The parking maneuver as one closed loop: ``plant.sense -> stage.act -> plant.apply``.
 
-The plant is the full vehicle-trailer model (Eqs. 19-24) integrated with RK4 and
-the command held over each sample. A reverse stage runs the NMPC until its
-optimal trailer speed is zero; if the result is not yet a success, a forward
-stage repositions and another reverse stage follows, up to ``max_stages`` stages.
+Stages alternate from reverse (Fig. 7): a reverse stage runs its NMPC until the optimal
+speed is zero; if the trailer is not parked, a forward stage repositions and another
+reverse stage follows, up to ``max_stages``. Every stage starts and ends at standstill: the
+car brakes to a stop, then the steer is set to what the next stage wants before it moves
+(those samples are recorded and their time counts). Success is judged on the true state.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from collections import deque
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from ..checks import InputError, check_int, check_range
-from ..control.nmpc import Pose, TrailerNMPC, to_goal_frame
-from ..control.ocp import NMPCSettings
-from ..control.pure_pursuit import PurePursuitSettings, forward_done, pure_pursuit_steer
-from ..model.integrate import PLANT_SUBSTEPS, step_full
+from ..checks import InputError
+from ..control.nmpc import FullNMPC, NMPCStep, TrailerNMPC
 from ..model.inverse import virtual_steer_from_front
 from ..model.kinematics import trailer_speed_from_rear_speed
-from ..model.vehicle import VehicleTrailer, vehicle_from_dict
-from ..sim import BASE_COLUMNS, State, Trajectory, check_state, state_columns
+from ..model.plant import Command, Measurement, Plant, PlantSettings
+from ..model.state import Pose, State, check_state
+from ..model.vehicle import VehicleTrailer
+from ..sim import STATE_COLUMNS, Trajectory, state_columns
+from .result import (
+    MANEUVER_COLUMNS,
+    ManeuverResult,
+    ManeuverSettings,
+    Outcome,
+    StageResult,
+    pose_errors,
+)
+from .stages import Stage, make_stages
 
-__all__ = [
-    "MANEUVER_COLUMNS",
-    "ManeuverResult",
-    "ManeuverSettings",
-    "StageResult",
-    "SuccessCriteria",
-    "park",
-]
+__all__ = ["SETTLE_TOLERANCE", "park"]
 
-#: Trajectory columns of a maneuver: those of ``simulate`` plus the controller's.
-MANEUVER_COLUMNS = (*BASE_COLUMNS, "stage", "trailer_speed", "virtual_steer", "cost", "solve_ms")
+#: A stage starts moving once the actual steer is this close to the steer it asked for [rad].
+SETTLE_TOLERANCE = math.radians(0.5)
 
-
-@dataclass(frozen=True)
-class SuccessCriteria:
-    """Success, defined once: final errors within these, limits never exceeded, within stages and time.
-
-    distance [m] (trailer axle to goal), orientation [rad] (trailer yaw error),
-    hitch [rad] (final |hitch|), max_stages, max_time [s] of maneuver time.
-    """
-
-    distance: float = 0.05
-    orientation: float = math.radians(0.5)
-    hitch: float = math.radians(3.0)
-    max_stages: int = 7
-    max_time: float = 300.0
-
-    def __post_init__(self) -> None:
-        for name in ("distance", "orientation", "hitch", "max_time"):
-            object.__setattr__(self, name, check_range(f"success.{name}", getattr(self, name), 0.0, low_open=True))
-        object.__setattr__(self, "max_stages", check_int("success.max_stages", self.max_stages, 1, 1000))
+#: The columns a row records besides the true state (the rest follow from it, ``state_columns``).
+_ROW_COLUMNS = tuple(c for c in MANEUVER_COLUMNS if c not in STATE_COLUMNS)
 
 
-@dataclass(frozen=True)
-class ManeuverSettings:
-    """Everything that shapes a maneuver besides the vehicle, start and goal."""
+@dataclass
+class _Loop:
+    """The running maneuver: the plant, the record, what was issued, and where it ended."""
 
-    nmpc: NMPCSettings = field(default_factory=NMPCSettings)
-    forward: PurePursuitSettings = field(default_factory=PurePursuitSettings)
-    success: SuccessCriteria = field(default_factory=SuccessCriteria)
-
-    def to_dict(self) -> dict[str, Any]:
-        nmpc = asdict(self.nmpc)
-        return {"nmpc": nmpc, "forward": asdict(self.forward), "success": asdict(self.success)}
-
-
-@dataclass(frozen=True)
-class StageResult:
-    """One stage: its kind, number of applied steps, rows [first_row, last_row] and its end errors."""
-
-    kind: str
-    steps: int
-    distance_error_m: float
-    orientation_error_deg: float
-    final_hitch_deg: float
-    first_row: int
-    last_row: int
-    reason: str
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-
-def pose_errors(goal: Pose, state: np.ndarray) -> tuple[float, float]:
-    """Trailer-axle distance to the goal [m] and signed orientation error [rad]."""
-    gx, gy, gyaw = to_goal_frame(goal, state[0], state[1], state[2])
-    return float(math.hypot(gx, gy)), float(gyaw)
-
-
-@dataclass(frozen=True)
-class ManeuverResult:
-    """A whole maneuver: outcome, stages and the trajectory (columns ``MANEUVER_COLUMNS``)."""
-
-    vehicle: VehicleTrailer
-    start: State
+    plant: Plant
     goal: Pose
-    settings: ManeuverSettings
-    success: bool
-    reason: str
-    stages: tuple[StageResult, ...]
-    trajectory: Trajectory
-    name: str = ""
+    delay: int
+    max_time: float
+    steer_rate: float  # the controller's steer-rate limit, for setting the wheels at standstill [rad/s]
+    states: list[np.ndarray] = field(default_factory=list)
+    rows: dict[str, list[float]] = field(default_factory=lambda: {c: [] for c in _ROW_COLUMNS})
+    issued: deque[Command] = field(default_factory=deque)
+    last: Command = Command(0.0, 0.0)
+    outcome: Outcome | None = None
+    detail: str = ""
 
-    @property
-    def max_abs_front_steer_deg(self) -> float:
-        return float(np.degrees(np.max(np.abs(self.trajectory["front_steer"]))))
+    def in_flight(self) -> tuple[Command, ...]:
+        """The commands issued but not yet acted on: the known delay."""
+        return tuple(self.issued)[len(self.issued) - self.delay :] if self.delay else ()
 
-    @property
-    def max_abs_hitch_deg(self) -> float:
-        return float(np.degrees(np.max(np.abs(self.trajectory["hitch"]))))
-
-    @property
-    def duration(self) -> float:
-        return float(self.trajectory["t"][-1])
-
-    def stage_rows(self, index: int) -> slice:
-        """Rows of stage ``index``, including the state it ended in."""
-        st = self.stages[index]
-        return slice(st.first_row, st.last_row + 1)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "name": self.name,
-            "vehicle": self.vehicle.to_dict(),
-            "start": self.start.to_dict(),
-            "goal": self.goal.to_dict(),
-            "success": self.success,
-            "reason": self.reason,
-            "duration_s": self.duration,
-            "max_abs_front_steer_deg": self.max_abs_front_steer_deg,
-            "max_abs_hitch_deg": self.max_abs_hitch_deg,
-            "stages": [s.to_dict() for s in self.stages],
-            "settings": self.settings.to_dict(),
-            "trajectory": self.trajectory.to_dict(),
-        }
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> ManeuverResult:
-        """Rebuild a saved result; a malformed one is a ``ValueError`` that says what is wrong."""
-        try:
-            s = data.get("settings", {})
-            nmpc: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in s.get("nmpc", {}).items()}
-            settings = ManeuverSettings(
-                nmpc=NMPCSettings(**nmpc),
-                forward=PurePursuitSettings(**s.get("forward", {})),
-                success=SuccessCriteria(**s.get("success", {})),
+    def step(self, stage: int, measurement: Measurement, command: Command, why: NMPCStep | None = None) -> bool:
+        """Apply one command and record the row; False (and the outcome) on a jackknife."""
+        vehicle = self.plant.vehicle
+        command = Command(
+            command.rear_speed, float(np.clip(command.front_steer, -vehicle.max_steer, vehicle.max_steer))
+        )
+        before = self.plant.state.as_array()
+        acting = self.plant.apply(command)
+        if acting is None:
+            self.outcome = Outcome.JACKKNIFE
+            return False
+        self.issued.append(command)
+        if len(self.issued) > self.delay + 1:
+            self.issued.popleft()
+        self.last = command
+        hitch = before[3]
+        self.states.append(before)
+        row = self.rows
+        row["t"].append(measurement.t)
+        row["rear_speed"].append(acting.rear_speed)
+        row["front_steer"].append(acting.front_steer)
+        row["rear_speed_cmd"].append(command.rear_speed)
+        row["front_steer_cmd"].append(command.front_steer)
+        row["hitch_measured"].append(measurement.state.hitch)
+        row["stage"].append(stage)
+        if why is not None:  # the controller's own view: U_0, or Eqs. (18), (56) of its command
+            row["trailer_speed"].append(why.trailer_speed)
+            row["virtual_steer"].append(why.virtual_steer)
+        else:
+            row["trailer_speed"].append(
+                float(trailer_speed_from_rear_speed(vehicle, hitch, command.rear_speed, command.front_steer))
             )
-            result = cls(
-                vehicle=vehicle_from_dict(data["vehicle"]),
-                start=State.from_dict(data["start"]),
-                goal=Pose.from_dict(data["goal"]),
-                settings=settings,
-                success=bool(data["success"]),
-                reason=str(data["reason"]),
-                stages=tuple(StageResult(**st) for st in data["stages"]),
-                trajectory=Trajectory.from_dict(data["trajectory"]),
-                name=str(data.get("name", "")),
-            )
-        except InputError:
-            raise
-        except KeyError as exc:
-            raise InputError(f"maneuver data lacks {exc}") from None
-        except (TypeError, AttributeError, ValueError) as exc:
-            raise InputError(f"maneuver data is malformed: {exc}") from None
-        result._check_layout()
-        return result
+            row["virtual_steer"].append(float(virtual_steer_from_front(vehicle, hitch, command.front_steer)))
+        row["cost"].append(why.cost if why is not None else math.nan)
+        row["solve_ms"].append(why.solve_ms if why is not None else math.nan)
+        return True
 
-    def _check_layout(self) -> None:
-        """Stages must tile the trajectory: contiguous rows from 0 to the last, every column present."""
-        missing = [c for c in MANEUVER_COLUMNS if c not in self.trajectory]
-        if missing:
-            raise InputError(f"maneuver trajectory lacks the column {missing[0]!r}")
-        n = len(self.trajectory)
-        if n < 1 or not self.stages:
-            raise InputError("maneuver has no rows or no stages")
-        expected_first = 0
-        for i, st in enumerate(self.stages):
-            if st.kind not in ("reverse", "forward"):
-                raise InputError(f"stage {i} kind must be 'reverse' or 'forward', got {st.kind!r}")
-            if not (isinstance(st.first_row, int) and isinstance(st.last_row, int)):
-                raise InputError(f"stage {i} rows must be integers, got {st.first_row!r}, {st.last_row!r}")
-            if st.first_row != expected_first or not st.first_row <= st.last_row < n:
-                raise InputError(
-                    f"stage {i} rows [{st.first_row}, {st.last_row}] do not follow on from row {expected_first} "
-                    f"within the {n} rows of the trajectory"
-                )
-            expected_first = st.last_row
-        if expected_first != n - 1:
-            raise InputError(f"the stages end at row {expected_first}, the trajectory at row {n - 1}")
+    def out_of_time(self) -> bool:
+        if self.plant.t >= self.max_time - 1e-9:
+            self.outcome = Outcome.TIMEOUT
+            return True
+        return False
 
+    def brake(self, stage: int) -> bool:
+        """Stop the car (commands in flight still act); False on a jackknife or timeout."""
+        while not self.plant.stopped():
+            if self.out_of_time() or not self.step(stage, self.plant.sense(), Command(0.0, self.last.front_steer)):
+                return False
+        return True
 
-class _Recorder:
-    """Rows of the trajectory as the maneuver runs: state at t_k and the command applied after it."""
+    def settle(self, stage: int, target: float) -> bool:
+        """Standing still, turn the wheels to ``target`` within the steer-rate limit; False on timeout."""
+        limit = self.plant.vehicle.max_steer
+        target = float(np.clip(target, -limit, limit))
+        rate = self.steer_rate * self.plant.dt
+        while abs(self.plant.front_steer - target) > SETTLE_TOLERANCE or self.last.front_steer != target:
+            if self.out_of_time():
+                return False
+            steer = self.last.front_steer + float(np.clip(target - self.last.front_steer, -rate, rate))
+            if not self.step(stage, self.plant.sense(), Command(0.0, steer)):
+                return False
+        return True
 
-    def __init__(self) -> None:
-        self.states: list[np.ndarray] = []
-        self.cols: dict[str, list[float]] = {
-            k: []
-            for k in ("t", "rear_speed", "front_steer", "stage", "trailer_speed", "virtual_steer", "cost", "solve_ms")
-        }
+    def final_row(self, stage: int) -> None:
+        """The final state and a stop, steer held."""
+        m = self.plant.sense()
+        vehicle = self.plant.vehicle
+        before = self.plant.state.as_array()
+        self.states.append(before)
+        row = self.rows
+        for name, value in (
+            ("t", self.plant.t),
+            ("rear_speed", 0.0),
+            ("front_steer", self.plant.front_steer),
+            ("rear_speed_cmd", 0.0),
+            ("front_steer_cmd", self.last.front_steer),
+            ("hitch_measured", m.state.hitch),
+            ("stage", stage),
+            ("trailer_speed", 0.0),
+            ("virtual_steer", float(virtual_steer_from_front(vehicle, before[3], self.plant.front_steer))),
+            ("cost", math.nan),
+            ("solve_ms", math.nan),
+        ):
+            row[name].append(value)
 
-    def add(self, t: float, state: np.ndarray, stage: int, **cmd: float) -> None:
-        self.states.append(state)
-        self.cols["t"].append(t)
-        self.cols["stage"].append(stage)
-        for k in ("rear_speed", "front_steer", "trailer_speed", "virtual_steer", "cost", "solve_ms"):
-            self.cols[k].append(cmd.get(k, math.nan))
-
-    def __len__(self) -> int:
-        return len(self.states)
-
-    def trajectory(self, vehicle: VehicleTrailer) -> Trajectory:
-        cols: dict[str, Any] = {**self.cols, **state_columns(vehicle, np.array(self.states))}
+    def trajectory(self) -> Trajectory:
+        cols: dict[str, Any] = {**self.rows, **state_columns(self.plant.vehicle, np.array(self.states))}
         return Trajectory({c: cols[c] for c in MANEUVER_COLUMNS})
 
 
-def _forward_virtual(vehicle: VehicleTrailer, hitch: float, rear_speed: float, steer: float) -> dict[str, float]:
-    return {
-        "trailer_speed": float(trailer_speed_from_rear_speed(vehicle, hitch, rear_speed, steer)),  # Eq. (18)
-        "virtual_steer": float(virtual_steer_from_front(vehicle, hitch, steer)),  # Eq. (56)
-    }
+def _run_stage(loop: _Loop, index: int, stage: Stage) -> str:
+    """Drive one stage to its end at standstill; returns the stage's reason (the loop's outcome on failure)."""
+    want = stage.begin(loop.plant.sense(), loop.goal)
+    if want is not None and not loop.settle(index, want):
+        return loop.outcome.value if loop.outcome else "settle"
+    for step in range(stage.max_steps):
+        if loop.out_of_time():
+            return Outcome.TIMEOUT.value
+        m = loop.plant.sense()
+        u = stage.act(m, loop.goal, loop.in_flight())
+        if not u.ok:
+            # Stopped safely. A reverse stage that got somewhere may have run into its limits (the hitch
+            # at its bound): the next stage can reposition. One that cannot even start ends the maneuver.
+            if step == 0 or stage.kind != "reverse":
+                loop.outcome, loop.detail = Outcome.SOLVER, u.status
+            loop.brake(index)
+            return f"solver: {u.status}"
+        if u.stop:
+            reason = "stopped" if stage.kind == "reverse" else "repositioned"
+            break
+        if not loop.step(index, m, u.command, u):
+            return Outcome.JACKKNIFE.value
+    else:
+        loop.outcome = Outcome.STALLED
+        reason = Outcome.STALLED.value
+    if not loop.brake(index):
+        return loop.outcome.value if loop.outcome else reason
+    return reason
 
 
 def park(
@@ -233,142 +189,86 @@ def park(
     goal: Pose | None = None,
     settings: ManeuverSettings | None = None,
     name: str = "",
-    controller: TrailerNMPC | None = None,
+    controller: TrailerNMPC | FullNMPC | None = None,
+    plant: PlantSettings | None = None,
 ) -> ManeuverResult:
-    """Park the trailer at ``goal`` from ``start`` with the 3-stage process of Fig. 7.
+    """Park the trailer at ``goal`` from ``start``: reverse, and forward and reverse again as needed (Fig. 7).
 
     Parameters
     ----------
     vehicle : VehicleTrailer
-        The combination (L_H > 0).
+        The controller's model of the combination (L_H > 0).
     start : State
-        Start trailer-axle pose and hitch angle (world frame).
+        True start trailer-axle pose and hitch angle (world frame); the car stands, wheels straight.
     goal : Pose
         Goal trailer-axle pose (default: the origin, heading +x).
     settings : ManeuverSettings
-        NMPC, forward stage and success settings (defaults: Table 4 and the README).
-    controller : TrailerNMPC, optional
-        A ready controller to reuse (it must match ``vehicle``, ``goal`` and ``settings.nmpc``);
-        building one compiles the NLP, so batch runs pass their own.
+        NMPC, forward stage and success settings; ``settings.nmpc.kind`` picks the process.
+    controller : TrailerNMPC or FullNMPC, optional
+        A ready reverse controller to reuse (built for ``vehicle`` and ``settings.nmpc``); building one
+        compiles the NLP, so batch runs pass their own. It serves any goal.
+    plant : PlantSettings
+        The car driven (default: the realistic car, :class:`PlantSettings`); its lengths may differ
+        from ``vehicle``'s.
 
     Returns
     -------
     ManeuverResult
-        ``success`` and ``reason`` (``"parked"``, ``"jackknife"``, ``"solver: ..."``,
-        ``"stalled"``, ``"timeout"``, ``"max_stages"``), the stages and the trajectory.
+        ``success``, ``reason`` (an :class:`Outcome` value) and ``detail``, the stages and the trajectory.
     """
     vehicle.require_hitch_offset()
     check_state(vehicle, start)
     goal = goal or Pose()
+    if not isinstance(goal, Pose):
+        raise InputError(f"goal must be a hitchpark.Pose, got {goal!r}")
     settings = settings or ManeuverSettings()
-    ok_crit, nmpc_s, fwd = settings.success, settings.nmpc, settings.forward
-    dt = nmpc_s.dt
-    nmpc = controller or TrailerNMPC(vehicle, nmpc_s, goal)
-    if (nmpc.vehicle, nmpc.goal, nmpc.settings) != (vehicle, goal, nmpc_s):
-        raise InputError("controller was built for another vehicle, goal or NMPC settings than this maneuver")
-    rec = _Recorder()
+    plant = plant or PlantSettings()
+    if controller is not None and (controller.vehicle, controller.settings) != (vehicle, settings.nmpc):
+        raise InputError("controller was built for another vehicle or NMPC settings than this maneuver")
+    crit = settings.success
+    car = Plant(plant, vehicle, start, settings.nmpc.dt)
+    loop = _Loop(car, goal, plant.delay_steps, crit.max_time, vehicle.max_steer_rate)
+    reverse, forward = make_stages(vehicle, settings, controller)
     stages: list[StageResult] = []
-    state = start.as_array()
-    t = 0.0
-    steer = 0.0
-    reason = ""
-
-    def advance(rear_speed: float, front_steer: float) -> np.ndarray | None:
-        nxt = step_full(vehicle, state, rear_speed, front_steer, dt, PLANT_SUBSTEPS)
-        return None if abs(nxt[3]) > vehicle.max_hitch else nxt  # would jackknife: not applied
-
+    stage: Stage = reverse
     while True:
-        index = len(stages)
-        kind = "reverse" if index % 2 == 0 else "forward"
-        first = len(rec)
-        stage_reason = ""
-        steps = 0
-        if kind == "reverse":
-            nmpc.reset(steer)
-            for _ in range(nmpc_s.max_steps):
-                if t >= ok_crit.max_time - 1e-9:
-                    stage_reason = "timeout"
-                    break
-                u = nmpc.step(*state)
-                if not u.ok:
-                    stage_reason = f"solver: {u.status}"
-                    break
-                if u.stop:
-                    stage_reason = "stopped"
-                    break
-                nxt = advance(u.rear_speed, u.front_steer)
-                if nxt is None:
-                    stage_reason = "jackknife"
-                    break
-                steer = u.front_steer
-                rec.add(
-                    t,
-                    state,
-                    index,
-                    rear_speed=u.rear_speed,
-                    front_steer=u.front_steer,
-                    trailer_speed=u.trailer_speed,
-                    virtual_steer=u.virtual_steer,
-                    cost=u.cost,
-                    solve_ms=u.solve_ms,
-                )
-                state, t, steps = nxt, t + dt, steps + 1
-            else:
-                stage_reason = "stalled"
-        else:
-            while not forward_done(goal, fwd, state):
-                if t >= ok_crit.max_time - 1e-9:
-                    stage_reason = "timeout"
-                    break
-                if steps * fwd.speed * dt >= fwd.max_distance - 1e-9:  # distance driven so far
-                    stage_reason = "stalled"
-                    break
-                steer = pure_pursuit_steer(vehicle, goal, fwd, state)
-                nxt = advance(fwd.speed, steer)
-                if nxt is None:
-                    stage_reason = "jackknife"
-                    break
-                rec.add(
-                    t,
-                    state,
-                    index,
-                    rear_speed=fwd.speed,
-                    front_steer=steer,
-                    **_forward_virtual(vehicle, state[3], fwd.speed, steer),
-                )
-                state, t, steps = nxt, t + dt, steps + 1
-            else:
-                stage_reason = "repositioned"
+        index, first = len(stages), len(loop.states)
+        stage_reason = _run_stage(loop, index, stage)
+        state = car.state.as_array()
         dist, orient = pose_errors(goal, state)
         stages.append(
-            StageResult(kind, steps, dist, math.degrees(orient), math.degrees(state[3]), first, len(rec), stage_reason)
+            StageResult(
+                stage.kind,
+                len(loop.states) - first,
+                dist,
+                math.degrees(orient),
+                math.degrees(state[3]),
+                first,
+                len(loop.states),
+                stage_reason,
+            )
         )
-        if stage_reason in ("timeout", "jackknife", "stalled") or stage_reason.startswith("solver"):
-            reason = stage_reason
+        if loop.outcome is not None:
             break
-        parked = dist <= ok_crit.distance and abs(orient) <= ok_crit.orientation and abs(state[3]) <= ok_crit.hitch
-        if kind == "reverse" and parked:
-            reason = "parked"
+        parked = dist <= crit.distance and abs(orient) <= crit.orientation and abs(state[3]) <= crit.hitch
+        if stage.kind == "reverse" and parked:
+            loop.outcome = Outcome.PARKED
             break
-        if len(stages) >= ok_crit.max_stages:
-            reason = "max_stages"
+        if len(stages) >= crit.max_stages:
+            loop.outcome = Outcome.MAX_STAGES
             break
-    # Final row: the final state and a stop, steer held.
-    rec.add(
-        t,
-        state,
-        len(stages) - 1,
-        rear_speed=0.0,
-        front_steer=steer,
-        trailer_speed=0.0,
-        virtual_steer=float(virtual_steer_from_front(vehicle, state[3], steer)),
-    )
-    traj = rec.trajectory(vehicle)
+        stage = forward if stage is reverse else reverse
+    loop.final_row(len(stages) - 1)
+    traj = loop.trajectory()
+    real = car.vehicle
     within_limits = (
-        np.max(np.abs(traj["front_steer"])) <= vehicle.max_steer + 1e-12
-        and np.max(np.abs(traj["hitch"])) <= vehicle.max_hitch
+        np.max(np.abs(traj["front_steer"])) <= real.max_steer + 1e-12
+        and np.max(np.abs(traj["hitch"])) <= real.max_hitch
     )
-    success = reason == "parked" and bool(within_limits) and t <= ok_crit.max_time + 1e-9
-    if reason == "parked" and not success:
-        reason = "limits exceeded"
-    return ManeuverResult(vehicle, start, goal, settings, success, reason, tuple(stages), traj, name)
+    outcome = loop.outcome
+    success = outcome is Outcome.PARKED and bool(within_limits) and car.t <= crit.max_time + 1e-9
+    if outcome is Outcome.PARKED and not success:
+        outcome = Outcome.LIMITS_EXCEEDED
+    return ManeuverResult(
+        vehicle, start, goal, settings, success, outcome.value, tuple(stages), traj, name, plant, loop.detail
+    )

@@ -16,7 +16,8 @@ Format (every table but ``[start]`` optional)::
     y = 0.0
     yaw_deg = 0.0
 
-    [vehicle]          # VehicleTrailer fields (SI units, radians)
+    [vehicle]          # VehicleTrailer fields (SI units, radians): the controller's model
+    [plant]            # PlantSettings fields, [plant.vehicle] the real car's differing fields
     [nmpc]             # NMPCSettings fields
     [forward]          # PurePursuitSettings fields
     [success]          # SuccessCriteria fields
@@ -34,20 +35,20 @@ from pathlib import Path
 from typing import Any
 
 from ..checks import InputError, check_number
-from ..control.nmpc import Pose
 from ..control.ocp import NMPCSettings
 from ..control.pure_pursuit import PurePursuitSettings
 from ..io import read_toml
+from ..model.plant import PlantSettings
+from ..model.state import Pose, State, check_state
 from ..model.vehicle import VehicleTrailer, vehicle_from_dict
-from ..sim import State, check_state
-from .process import ManeuverSettings, SuccessCriteria
+from .result import ManeuverSettings, SuccessCriteria
 
 __all__ = ["BUILTIN_ORDER", "Scenario", "builtin_scenarios", "load_scenario", "scenario_from_dict"]
 
 #: The paper's four scenarios, in its order.
 BUILTIN_ORDER = ("parallel", "parallel_hitch", "perpendicular", "random")
 
-_TOP = ("name", "description", "start", "goal", "vehicle", "nmpc", "forward", "success")
+_TOP = ("name", "description", "start", "goal", "vehicle", "plant", "nmpc", "forward", "success")
 
 
 @dataclass(frozen=True)
@@ -61,6 +62,7 @@ class Scenario:
     settings: ManeuverSettings = field(default_factory=ManeuverSettings)
     description: str = ""
     path: Path | None = None
+    plant: PlantSettings = field(default_factory=PlantSettings)
 
 
 def _table(data: dict[str, Any], key: str) -> dict[str, Any]:
@@ -119,9 +121,11 @@ def scenario_from_dict(data: dict[str, Any], path: Path | None = None) -> Scenar
         forward=_settings(PurePursuitSettings, "forward", _table(data, "forward")),
         success=_settings(SuccessCriteria, "success", _table(data, "success")),
     )
+    plant = PlantSettings.from_dict(_table(data, "plant"))
     vehicle.require_hitch_offset()
     check_state(vehicle, start)
-    return Scenario(name, start, goal, vehicle, settings, description, path)
+    check_state(plant.resolve_vehicle(vehicle), start)
+    return Scenario(name, start, goal, vehicle, settings, description, path, plant)
 
 
 def load_scenario(path: str | Path) -> Scenario:

@@ -1,6 +1,7 @@
-"""Vehicle-trailer model: parameters, kinematics (Section 2), inverse kinematics (Section 3)."""
+"""Vehicle-trailer model: parameters, states and poses, kinematics (Section 2), inverse kinematics
+(Section 3), and the plant (the simulated car with actuators and sensors)."""
 
-from .geometry import Pose, body_outlines, to_goal_frame, wrap_angle
+from .geometry import body_outlines
 from .integrate import plant_function, rk4, step_full
 from .inverse import (
     actual_virtual_steer,
@@ -23,21 +24,32 @@ from .kinematics import (
     trailer_rhs,
     trailer_speed_from_rear_speed,
 )
+from .plant import IDEAL, Command, Measurement, Plant, PlantSettings, load_plant
+from .state import Pose, State, check_pose, check_state, to_goal_frame, wrap_angle
 from .vehicle import VehicleTrailer, load_vehicle, vehicle_from_dict
 
 __all__ = [
     "FULL_INPUT",
     "FULL_STATE",
+    "IDEAL",
     "TRAILER_INPUT",
     "TRAILER_STATE",
+    "Command",
+    "Measurement",
+    "Plant",
+    "PlantSettings",
     "Pose",
+    "State",
     "VehicleTrailer",
     "actual_virtual_steer",
     "body_outlines",
+    "check_pose",
+    "check_state",
     "front_steer_from_virtual",
     "full_rates",
     "full_rhs",
     "hitch_point",
+    "load_plant",
     "load_vehicle",
     "plant_function",
     "rear_axle_pose",

@@ -1,20 +1,16 @@
-"""Planar geometry: poses, the parking frame, and the outlines of the bodies.
+"""Planar geometry: the outlines of the bodies and of the parking space, in the world frame.
 
-Pure NumPy. The outlines serve drawing now and collision checks later; the
-parking frame (Fig. 5) has its origin at the goal trailer-axle position and its
-x axis along the goal heading.
+Pure NumPy. Poses and the parking frame live in :mod:`.state` (re-exported here).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
-from ..checks import MAX_COORDINATE, MAX_YAW, check_range
 from .kinematics import hitch_point, rear_axle_pose
+from .state import Pose, check_pose, to_goal_frame, wrap_angle
 from .vehicle import VehicleTrailer
 
 __all__ = [
@@ -28,47 +24,6 @@ __all__ = [
     "wheel_outlines",
     "wrap_angle",
 ]
-
-
-def wrap_angle(a: Any) -> Any:
-    """Angle(s) wrapped to [-pi, pi)."""
-    r = (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
-    return np.where(r >= np.pi, r - 2 * np.pi, r)  # the modulo can round up to 2 pi
-
-
-@dataclass(frozen=True)
-class Pose:
-    """A planar pose in the world frame [m, m, rad]; the goal is the trailer-axle pose when parked."""
-
-    x: float = 0.0
-    y: float = 0.0
-    yaw: float = 0.0
-
-    def __post_init__(self) -> None:
-        check_pose("goal", self.x, self.y, self.yaw)
-        for name in ("x", "y", "yaw"):
-            object.__setattr__(self, name, float(getattr(self, name)))
-
-    def to_dict(self) -> dict[str, float]:
-        return {"x": self.x, "y": self.y, "yaw_deg": math.degrees(self.yaw)}
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> Pose:
-        return cls(float(data["x"]), float(data["y"]), math.radians(data["yaw_deg"]))
-
-
-def check_pose(what: str, x: Any, y: Any, yaw: Any) -> None:
-    """Raise ``ValueError`` unless x, y are finite within +-MAX_COORDINATE m and yaw within +-MAX_YAW rad."""
-    for name, value in (("x", x), ("y", y)):
-        check_range(f"{what} {name}", value, -MAX_COORDINATE, MAX_COORDINATE, unit="m")
-    check_range(f"{what} yaw", yaw, -MAX_YAW, MAX_YAW, unit=f"rad ({math.degrees(MAX_YAW):g} deg)")
-
-
-def to_goal_frame(goal: Pose, x: Any, y: Any, yaw: Any) -> tuple[Any, Any, Any]:
-    """World pose(s) -> parking frame of ``goal`` (Fig. 5): origin at the goal, X along its heading."""
-    c, s = math.cos(goal.yaw), math.sin(goal.yaw)
-    dx, dy = np.asarray(x) - goal.x, np.asarray(y) - goal.y
-    return c * dx + s * dy, -s * dx + c * dy, wrap_angle(np.asarray(yaw) - goal.yaw)
 
 
 #: Wheel footprint used for drawing [m]: length (tyre diameter) and width.

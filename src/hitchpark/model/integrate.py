@@ -18,7 +18,7 @@ import numpy as np
 from .kinematics import full_rhs
 from .vehicle import VehicleTrailer
 
-__all__ = ["PLANT_SUBSTEPS", "plant_function", "rk4", "step_full"]
+__all__ = ["PLANT_SUBSTEPS", "plant_function", "rk4", "rk4_timed", "step_full"]
 
 #: Sub-steps per sample. At dt = 0.1 s and |V_R| <= 1 m/s, 10 RK4 sub-steps
 #: leave a local error below 1e-12 m (see tests/model/test_integrate.py).
@@ -27,13 +27,19 @@ PLANT_SUBSTEPS = 10
 
 def rk4(rhs: Callable[[Any], Any], state: Any, dt: Any, substeps: int = PLANT_SUBSTEPS) -> Any:
     """Integrate ``x' = rhs(x)`` over ``dt`` with ``substeps`` RK4 steps (NumPy arrays or CasADi symbols)."""
+    return rk4_timed(lambda x, _t: rhs(x), state, dt, substeps)
+
+
+def rk4_timed(rhs: Callable[[Any, Any], Any], state: Any, dt: Any, substeps: int = PLANT_SUBSTEPS) -> Any:
+    """Integrate ``x' = rhs(x, t)`` from t = 0 over ``dt`` with ``substeps`` RK4 steps."""
     x = state if isinstance(state, ca.SX | ca.MX) else np.asarray(state, dtype=float)
     h = dt / substeps
-    for _ in range(substeps):
-        k1 = rhs(x)
-        k2 = rhs(x + 0.5 * h * k1)
-        k3 = rhs(x + 0.5 * h * k2)
-        k4 = rhs(x + h * k3)
+    for i in range(substeps):
+        t = i * h
+        k1 = rhs(x, t)
+        k2 = rhs(x + 0.5 * h * k1, t + 0.5 * h)
+        k3 = rhs(x + 0.5 * h * k2, t + 0.5 * h)
+        k4 = rhs(x + h * k3, t + h)
         x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
     return x
 

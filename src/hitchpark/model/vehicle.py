@@ -43,6 +43,11 @@ class VehicleTrailer:
         must lie behind the hitch (trailer_front < trailer_length).
     trailer_width : float
         Trailer body width [m], > 0.
+    max_steer_rate : float
+        Road-wheel steer rate the controllers may command [rad/s], in (0, 10]. Default 0.6 rad/s
+        (34 deg/s): electric power steering in parking assists turns the road wheels at 30-40 deg/s.
+    max_accel : float
+        Longitudinal acceleration the controllers may command [m/s^2], in (0, 10]. Default 1 m/s^2.
     """
 
     wheelbase: float = 2.896
@@ -56,6 +61,8 @@ class VehicleTrailer:
     trailer_front: float = 2.0
     trailer_rear: float = 1.0
     trailer_width: float = 1.8
+    max_steer_rate: float = 0.6
+    max_accel: float = 1.0
 
     def __post_init__(self) -> None:
         def put(name: str, value: float) -> None:
@@ -80,6 +87,10 @@ class VehicleTrailer:
                     name, getattr(self, name), 0.0, math.pi / 2, low_open=True, high_open=True, unit="rad (0 to 90 deg)"
                 ),
             )
+        put(
+            "max_steer_rate", check_range("max_steer_rate", self.max_steer_rate, 0.0, 10.0, low_open=True, unit="rad/s")
+        )
+        put("max_accel", check_range("max_accel", self.max_accel, 0.0, 10.0, low_open=True, unit="m/s^2"))
         if self.trailer_front >= self.trailer_length:
             raise InputError(
                 f"trailer_front must be < trailer_length ({self.trailer_length:g} m): "

@@ -1,4 +1,4 @@
-"""Running scenarios and reporting them: Table 5, ``summary.json``, figures on request.
+"""Running scenarios and reporting them: Table 5, ``summary.json``, saved maneuvers, figures on request.
 
 Figures come from :mod:`hitchpark.viz`, imported only when asked for.
 """
@@ -17,8 +17,10 @@ import numpy as np
 
 from ..checks import InputError
 from ..io import StagedFolder, write_json
-from .process import ManeuverResult, park
-from .scenario import Scenario, builtin_scenarios
+from ..maneuver.process import park
+from ..maneuver.result import ManeuverResult
+from ..maneuver.scenario import Scenario, builtin_scenarios
+from ..model.plant import PlantSettings
 
 __all__ = [
     "PAPER_TABLE5",
@@ -42,9 +44,16 @@ PAPER_TABLE5 = {
 }
 
 
-def run_scenario(scenario: Scenario) -> ManeuverResult:
-    """Park from the scenario's start with its vehicle and settings."""
-    return park(scenario.vehicle, scenario.start, scenario.goal, scenario.settings, name=scenario.name)
+def run_scenario(scenario: Scenario, plant: PlantSettings | None = None) -> ManeuverResult:
+    """Park from the scenario's start with its vehicle, settings and plant (or ``plant`` instead)."""
+    return park(
+        scenario.vehicle,
+        scenario.start,
+        scenario.goal,
+        scenario.settings,
+        name=scenario.name,
+        plant=plant or scenario.plant,
+    )
 
 
 def render_maneuver(
@@ -140,6 +149,7 @@ def reproduce(
     animation: bool = True,
     progress: Callable[[str], None] | None = None,
     workers: int | None = None,
+    plant: PlantSettings | None = None,
 ) -> tuple[list[ManeuverResult], Path]:
     """Run the scenarios (default: the paper's four), save each, and write ``out/summary.json``.
 
@@ -147,7 +157,7 @@ def reproduce(
     ``out/<name>/``, beside ``summary.json``. Everything is built in a staging folder and
     published at the end, so an error leaves ``out`` as it was. Figures and animations,
     the slow part, are drawn in ``workers`` processes (default: one per core, at most
-    one per scenario).
+    one per scenario). ``plant`` replaces the scenarios' own plant (the paper's: ideal).
     """
     out = Path(out)
     scenarios = list(scenarios) if scenarios is not None else builtin_scenarios()
@@ -157,7 +167,7 @@ def reproduce(
     staged = StagedFolder(out)  # an --out that is a file fails here, before any work
     results, entries = [], []
     for sc in scenarios:
-        result = run_scenario(sc)
+        result = run_scenario(sc, plant)
         results.append(result)
         entries.append(summary_entry(result, f"{sc.name}/maneuver.json"))
         if progress:

@@ -1,0 +1,1 @@
+"""Applications above the maneuver: reproducing the paper, saving reports, running many maneuvers."""

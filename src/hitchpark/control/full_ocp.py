@@ -1,0 +1,86 @@
+"""The full-model parking OCP: predict what the car will do, not only what the trailer should.
+
+States ``(x_trailer, y_trailer, yaw_trailer, hitch, front_steer, rear_speed)`` in the parking
+frame; inputs ``(steer_rate, accel)``. The pose and hitch follow the full kinematics
+(Eqs. 19-24, the hitch rate being Eq. (21) minus Eq. (24), as Eq. (43) gives it in the virtual
+inputs), the steer and speed integrate their rates. Every limit of the car holds on the whole
+horizon, not only on the first step as Eqs. (56)-(57) can promise: |steer| <= max_steer,
+|steer rate| <= max_steer_rate, |accel| <= max_accel, |hitch| <= max_hitch - hitch_margin, and
+the speed within [speed_min, 0] (reverse). The cost is Eq. (49)'s quadratic form on these
+states and inputs, with a terminal weight P. One RK4 step per sample keeps the prediction
+accurate at 1 m/s.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from ..model.integrate import rk4
+from ..model.kinematics import full_rhs
+from ..model.vehicle import VehicleTrailer
+from .ocp import NMPCSettings
+
+__all__ = ["FULL_OCP_INPUT", "FULL_OCP_STATE", "FullParkingProblem"]
+
+FULL_OCP_STATE = ("x_trailer", "y_trailer", "yaw_trailer", "hitch", "front_steer", "rear_speed")
+FULL_OCP_INPUT = ("steer_rate", "accel")
+
+#: Index of the steer and speed in the state.
+STEER, SPEED = 4, 5
+
+
+class FullParkingProblem:
+    """Drive the full model to the zero state (parked, hitch straight, stopped) within the car's limits."""
+
+    state_names = FULL_OCP_STATE
+    input_names = FULL_OCP_INPUT
+    n_x = 6
+    n_u = 2
+
+    def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings):
+        self.vehicle = vehicle
+        self.settings = settings
+        self.path_constraints: list[Callable[[Any, Any, int], tuple[Any, Any, Any]]] = []
+        self._Q = ca.diag(ca.DM(settings.Q))
+        self._R = ca.diag(ca.DM(settings.R))
+        self._P = ca.diag(ca.DM(settings.P))
+
+    @property
+    def horizon(self) -> int:
+        assert self.settings.horizon is not None
+        return self.settings.horizon
+
+    def rhs(self, x: Any, u: Any) -> Any:
+        """Time derivative of the state: full kinematics (Eqs. 19-24) plus the actuator integrators."""
+        pose_rates = full_rhs(self.vehicle, x[0:4], ca.vertcat(x[SPEED], x[STEER]))
+        return ca.vertcat(pose_rates, u[0], u[1])
+
+    def discrete_dynamics(self, x: Any, u: Any, dt: float | None = None) -> Any:
+        """One RK4 step of ``dt`` (default: the prediction step), inputs held."""
+        step = self.settings.prediction_dt if dt is None else dt
+        return rk4(lambda z: self.rhs(z, u), x, step, substeps=1)
+
+    def stage_cost(self, x: Any, u: Any) -> Any:
+        """X_k^T Q X_k + U_k^T R U_k, Eq. (49) on the full state and the actuator rates."""
+        return ca.bilin(self._Q, x, x) + ca.bilin(self._R, u, u)
+
+    def terminal_cost(self, x: Any) -> Any:
+        """X_N^T P X_N."""
+        return ca.bilin(self._P, x, x)
+
+    def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds on X_1..X_N: the jackknife limit with its margin, the steer limit, reverse speeds."""
+        v, s = self.vehicle, self.settings
+        hitch = v.max_hitch - s.hitch_margin
+        low = np.array([-np.inf, -np.inf, -np.inf, -hitch, -v.max_steer, s.speed_min])
+        high = np.array([np.inf, np.inf, np.inf, hitch, v.max_steer, s.speed_max])
+        return low, high
+
+    def input_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The steer-rate and acceleration limits of the vehicle."""
+        v = self.vehicle
+        return np.array([-v.max_steer_rate, -v.max_accel]), np.array([v.max_steer_rate, v.max_accel])

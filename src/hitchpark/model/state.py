@@ -1,0 +1,98 @@
+"""States and poses: the configuration of the combination, a goal pose, the parking frame.
+
+A :class:`State` is the trailer-axle pose and the hitch angle (the four numbers that fix
+the whole configuration, Eqs. 25-28); a :class:`Pose` is a planar pose, such as the goal
+trailer-axle pose. The parking frame (Fig. 5) has its origin at the goal and its x axis
+along the goal heading.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..checks import MAX_COORDINATE, MAX_YAW, InputError, check_number, check_range
+from .vehicle import VehicleTrailer
+
+__all__ = ["Pose", "State", "check_pose", "check_state", "to_goal_frame", "wrap_angle"]
+
+
+def wrap_angle(a: Any) -> Any:
+    """Angle(s) wrapped to [-pi, pi)."""
+    r = (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
+    return np.where(r >= np.pi, r - 2 * np.pi, r)  # the modulo can round up to 2 pi
+
+
+def check_pose(what: str, x: Any, y: Any, yaw: Any) -> None:
+    """Raise ``InputError`` unless x, y are finite within +-MAX_COORDINATE m and yaw within +-MAX_YAW rad."""
+    for name, value in (("x", x), ("y", y)):
+        check_range(f"{what} {name}", value, -MAX_COORDINATE, MAX_COORDINATE, unit="m")
+    check_range(f"{what} yaw", yaw, -MAX_YAW, MAX_YAW, unit=f"rad ({math.degrees(MAX_YAW):g} deg)")
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A planar pose in the world frame [m, m, rad]; the goal is the trailer-axle pose when parked."""
+
+    x: float = 0.0
+    y: float = 0.0
+    yaw: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_pose("goal", self.x, self.y, self.yaw)
+        for name in ("x", "y", "yaw"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+
+    def to_dict(self) -> dict[str, float]:
+        return {"x": self.x, "y": self.y, "yaw_deg": math.degrees(self.yaw)}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Pose:
+        return cls(float(data["x"]), float(data["y"]), math.radians(data["yaw_deg"]))
+
+
+@dataclass(frozen=True)
+class State:
+    """Configuration of the system: trailer-axle pose [m, m, rad] and hitch angle [rad]."""
+
+    x: float
+    y: float
+    yaw: float
+    hitch: float
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.x, self.y, self.yaw, self.hitch], dtype=float)
+
+    @classmethod
+    def from_array(cls, values: Iterable[float]) -> State:
+        x, y, yaw, hitch = (float(v) for v in values)
+        return cls(x, y, yaw, hitch)
+
+    def to_dict(self) -> dict[str, float]:
+        return {"x": self.x, "y": self.y, "yaw_deg": math.degrees(self.yaw), "hitch_deg": math.degrees(self.hitch)}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> State:
+        return cls(float(data["x"]), float(data["y"]), math.radians(data["yaw_deg"]), math.radians(data["hitch_deg"]))
+
+
+def check_state(vehicle: VehicleTrailer, state: State, what: str = "start") -> None:
+    """Raise ``InputError`` if ``state`` is not a finite pose in range or is beyond the jackknife limit."""
+    check_pose(what, state.x, state.y, state.yaw)
+    check_number(f"{what} hitch", state.hitch)
+    if abs(state.hitch) > vehicle.max_hitch:
+        raise InputError(
+            f"{what} hitch angle must be within the jackknife limit +-{math.degrees(vehicle.max_hitch):g} deg, "
+            f"got {math.degrees(state.hitch):g} deg"
+        )
+
+
+def to_goal_frame(goal: Pose, x: Any, y: Any, yaw: Any) -> tuple[Any, Any, Any]:
+    """World pose(s) -> parking frame of ``goal`` (Fig. 5): origin at the goal, X along its heading."""
+    c, s = math.cos(goal.yaw), math.sin(goal.yaw)
+    dx, dy = np.asarray(x) - goal.x, np.asarray(y) - goal.y
+    return c * dx + s * dy, -s * dx + c * dy, wrap_angle(np.asarray(yaw) - goal.yaw)
