@@ -45,10 +45,11 @@ from .rig import draw_goal, draw_paths, draw_rig, rig_outlines
 
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
+    from matplotlib.figure import Figure
 
     from ..maneuver.process import ManeuverResult
 
-__all__ = ["plot_maneuver"]
+__all__ = ["motion_figure", "nmpc_figure", "plot_maneuver"]
 
 
 def _snapshot_rows(t: np.ndarray, first: int, last: int, every: float, max_count: int = 8) -> list[int]:
@@ -74,7 +75,9 @@ def _panel_rows(result: ManeuverResult, snapshot_every: float) -> list[tuple[sli
     return panels
 
 
-def _motion_figure(result: ManeuverResult, path: Path, dpi: int, snapshot_every: float) -> Path:
+def motion_figure(result: ManeuverResult, snapshot_every: float = 2.0) -> Figure:
+    """The motion figure: a panel per stage and one for the whole maneuver (the caller saves and closes it)."""
+    use_headless_backend()
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
@@ -170,12 +173,12 @@ def _motion_figure(result: ManeuverResult, path: Path, dpi: int, snapshot_every:
         frameon=False,
     )
     fig.suptitle(headline(result), fontsize=11)
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
-    return path
+    return fig
 
 
-def _nmpc_figure(result: ManeuverResult, path: Path, dpi: int) -> Path:
+def nmpc_figure(result: ManeuverResult) -> Figure:
+    """The NMPC figure: a row of panels per reverse stage (the caller saves and closes it)."""
+    use_headless_backend()
     import matplotlib.pyplot as plt
 
     tr = result.trajectory
@@ -271,8 +274,17 @@ def _nmpc_figure(result: ManeuverResult, path: Path, dpi: int) -> Path:
             color=color,
         )
     fig.suptitle(headline(result), fontsize=11)
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
+    return fig
+
+
+def _save(fig: Figure, path: Path, dpi: int) -> Path:
+    """Write ``fig`` to ``path`` and close it, even if writing fails."""
+    import matplotlib.pyplot as plt
+
+    try:
+        fig.savefig(path, dpi=dpi)
+    finally:
+        plt.close(fig)
     return path
 
 
@@ -318,7 +330,7 @@ def plot_maneuver(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     return [
-        _motion_figure(result, out / f"{prefix}motion.png", dpi, snapshot_every),
-        inputs_figure(result, out / f"{prefix}inputs.png", dpi),
-        _nmpc_figure(result, out / f"{prefix}nmpc.png", dpi),
+        _save(motion_figure(result, snapshot_every), out / f"{prefix}motion.png", dpi),
+        _save(inputs_figure(result), out / f"{prefix}inputs.png", dpi),
+        _save(nmpc_figure(result), out / f"{prefix}nmpc.png", dpi),
     ]

@@ -3,20 +3,24 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from . import use_headless_backend
 from .common import DF, DPSI, final_errors, headline, limit_lines, shade_stages
 
 if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
     from ..maneuver.process import ManeuverResult
 
 __all__ = ["inputs_figure"]
 
 
-def inputs_figure(result: ManeuverResult, path: Path, dpi: int) -> Path:
+def inputs_figure(result: ManeuverResult) -> Figure:
+    """The inputs figure (the caller saves and closes it)."""
+    use_headless_backend()
     import matplotlib.pyplot as plt
 
     tr = result.trajectory
@@ -70,6 +74,4 @@ def inputs_figure(result: ManeuverResult, path: Path, dpi: int) -> Path:
     for ax in axes:
         ax.grid(True, lw=0.4, alpha=0.5)
     fig.suptitle(headline(result), fontsize=10.5)
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
-    return path
+    return fig
