@@ -4,8 +4,8 @@
 
 * ``motion.png`` (Figs. 8/10/12/14 a-d): one panel per stage with the trailer-axle
   and rear-axle paths and the bodies at several instants, plus the overall trajectory;
-* ``inputs.png`` (Figs. 8e-f, drawn by :mod:`.inputs`): front steer, rear-axle speed and
-  hitch angle against time;
+* ``inputs.png`` (Figs. 8e-f, drawn by :mod:`.inputs`): front steer and its rate, rear-axle
+  speed and hitch angle against time, commanded, actual and measured where the trajectory has them;
 * ``nmpc.png`` (Figs. 9/11/13/15): per reverse stage, the NMPC cost, the virtual
   inputs, the trailer position in the parking frame and the trailer orientation error.
 
