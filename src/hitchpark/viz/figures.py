@@ -1,0 +1,336 @@
+"""Figures 8-15 of the paper for one parking maneuver.
+
+``plot_maneuver`` writes three PNG files:
+
+* ``motion.png`` (Figs. 8/10/12/14 a-d): one panel per stage with the trailer-axle
+  and rear-axle paths and the bodies at several instants, plus the overall trajectory;
+* ``inputs.png`` (Figs. 8e-f, drawn by :mod:`.inputs`): front steer and its rate, rear-axle
+  speed and hitch angle against time, commanded, actual and measured where the trajectory has them;
+* ``nmpc.png`` (Figs. 9/11/13/15): per reverse stage, the NMPC cost, the virtual
+  inputs, the trailer position in the parking frame and the trailer orientation error.
+
+Matplotlib is imported only inside the plotting functions.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..checks import InputError
+from ..model.geometry import parking_space, to_goal_frame
+from ..model.inverse import virtual_steer_bounds
+from . import use_headless_backend
+from .common import (
+    LIMIT_COLOR,
+    SPACE_EDGE,
+    SPACE_FACE,
+    TRAILER_EDGE,
+    TRAILER_FACE,
+    VEHICLE_EDGE,
+    VEHICLE_FACE,
+    Extent,
+    headline,
+    limit_lines,
+    stage_color,
+    stage_name,
+    stage_summary,
+    step_series,
+)
+from .inputs import inputs_figure
+from .rig import draw_goal, draw_paths, draw_rig, rig_outlines
+
+if TYPE_CHECKING:
+    from matplotlib.artist import Artist
+    from matplotlib.figure import Figure
+
+    from ..maneuver.process import ManeuverResult
+
+__all__ = ["motion_figure", "nmpc_figure", "plot_maneuver"]
+
+
+def _snapshot_rows(t: np.ndarray, first: int, last: int, every: float, max_count: int = 8) -> list[int]:
+    """Rows strictly between ``first`` and ``last`` about ``every`` seconds apart (at most ``max_count``)."""
+    duration = float(t[last] - t[first])
+    if last - first < 2 or duration <= 0:
+        return []
+    step = max(every, duration / (max_count + 1))
+    targets = t[first] + np.arange(step, duration - 0.5 * step + 1e-9, step)
+    rows = np.searchsorted(t[first : last + 1], targets) + first
+    return sorted({int(r) for r in rows if first < r < last})
+
+
+def _panel_rows(result: ManeuverResult, snapshot_every: float) -> list[tuple[slice, list[int], list[int]]]:
+    """For each panel (stages, then the overall one): path rows, light-body rows, bold-body rows."""
+    t = result.trajectory["t"]
+    panels = []
+    for i, st in enumerate(result.stages):
+        bold = [st.first_row] if st.last_row == st.first_row else [st.first_row, st.last_row]
+        panels.append((result.stage_rows(i), _snapshot_rows(t, st.first_row, st.last_row, snapshot_every), bold))
+    light = [st.first_row for st in result.stages[1:]]
+    panels.append((slice(0, len(t)), light, [0, len(t) - 1]))
+    return panels
+
+
+def motion_figure(result: ManeuverResult, snapshot_every: float = 2.0) -> Figure:
+    """The motion figure: a panel per stage and one for the whole maneuver (the caller saves and closes it)."""
+    use_headless_backend()
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    tr = result.trajectory
+    n_stages = len(result.stages)
+    panels = _panel_rows(result, snapshot_every)
+    n_panels = len(panels)
+    ncols = 2 if n_panels <= 4 else 3
+    nrows = math.ceil(n_panels / ncols)
+
+    # Extents first, to give the panels a height that suits the data.
+    extents = []
+    for rows, light, bold in panels:
+        ext = Extent()
+        ext.add(parking_space(result.vehicle, result.goal))
+        ext.add(np.column_stack([tr["x_trailer"][rows], tr["y_trailer"][rows]]))
+        ext.add(np.column_stack([tr["x_rear"][rows], tr["y_rear"][rows]]))
+        for row in (*light, *bold):
+            bodies, _ = rig_outlines(result, row)
+            ext.add(bodies["vehicle"])
+            ext.add(bodies["trailer"])
+        extents.append(ext)
+    width = 6.0
+    aspect = float(np.median([e.aspect for e in extents]))
+    height = float(np.clip(width * aspect * 0.92, 2.0, 5.5)) + 1.15
+    fig, axes = plt.subplots(
+        nrows, ncols, figsize=(width * ncols, height * nrows + 1.3), constrained_layout=True, squeeze=False
+    )
+    flat = axes.ravel()
+    letters = "abcdefghij"
+    for p, ((_rows, light, bold), ext) in enumerate(zip(panels, extents, strict=True)):
+        ax = flat[p]
+        draw_goal(ax, result)
+        for i in range(n_stages) if p == n_stages else [p]:
+            draw_paths(ax, result, result.stage_rows(i), stage_color(i))
+        for row in light:
+            draw_rig(ax, result, row, bold=False)
+        for j, row in enumerate(bold):
+            draw_rig(ax, result, row, bold=True, zorder=3 + 0.5 * j)
+        first, last = bold[0], bold[-1]
+        start_color = stage_color(p if p < n_stages else 0)
+        end_color = stage_color(p if p < n_stages else n_stages - 1)
+        ax.plot(
+            tr["x_trailer"][first],
+            tr["y_trailer"][first],
+            "o",
+            ms=6.5,
+            mfc="white",
+            mec=start_color,
+            mew=1.8,
+            zorder=6,
+        )
+        ax.plot(tr["x_trailer"][last], tr["y_trailer"][last], "s", ms=6, color=end_color, zorder=6)
+        ext.apply(ax)
+        if p < n_stages:
+            title = f"({letters[p]}) {stage_name(result, p)}\n{stage_summary(result, p)}"
+        else:
+            title = f"({letters[p]}) Overall trajectory\nbodies at the start, at each stage change and at the end"
+        ax.set_title(title, fontsize=10)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.grid(True, lw=0.4, alpha=0.5)
+    for ax in flat[n_panels:]:
+        ax.set_visible(False)
+    handles: list[Artist] = [
+        Line2D([], [], color=stage_color(i), lw=2.0, label=f"stage {i + 1} ({st.kind})")
+        for i, st in enumerate(result.stages)
+    ]
+    handles += [
+        Line2D([], [], color="#555555", lw=2.0, label="trailer-axle path"),
+        Line2D([], [], color="#555555", lw=1.2, ls=(0, (4, 2)), label="vehicle rear-axle path"),
+        Line2D([], [], marker="o", mfc="white", mec="#555555", mew=1.6, ls="none", label="start (trailer axle)"),
+        Line2D([], [], marker="s", color="#555555", ls="none", label="end (trailer axle)"),
+        Patch(fc=VEHICLE_FACE, ec=VEHICLE_EDGE, label="vehicle"),
+        Patch(fc=TRAILER_FACE, ec=TRAILER_EDGE, label="trailer (drawbar to the hitch •)"),
+        Line2D(
+            [],
+            [],
+            lw=0.8,
+            color=VEHICLE_EDGE,
+            alpha=0.45,
+            label=f"bodies every {snapshot_every:g} s (at most 8 per stage)",
+        ),
+        Patch(fc=SPACE_FACE, ec=SPACE_EDGE, ls="--", label="parking space, goal heading →"),
+    ]
+    fig.legend(
+        handles=handles,
+        loc="outside lower center",
+        ncol=min(6, math.ceil(len(handles) / 2)),
+        fontsize=8.5,
+        frameon=False,
+    )
+    fig.suptitle(headline(result), fontsize=11)
+    return fig
+
+
+def nmpc_figure(result: ManeuverResult) -> Figure:
+    """The NMPC figure: a row of panels per reverse stage (the caller saves and closes it)."""
+    use_headless_backend()
+    import matplotlib.pyplot as plt
+
+    tr = result.trajectory
+    t = tr["t"]
+    v = result.vehicle
+    nmpc = result.settings.nmpc
+    reverse = [i for i, st in enumerate(result.stages) if st.kind == "reverse"]
+    fig = plt.figure(figsize=(18, 3.3 * len(reverse) + 0.5), constrained_layout=True)
+    subfigs = np.asarray(fig.subfigures(len(reverse), 1, squeeze=False)).ravel()
+    gx, gy, gyaw = to_goal_frame(result.goal, tr["x_trailer"], tr["y_trailer"], tr["yaw_trailer"])
+    for sub, i in zip(subfigs, reverse, strict=True):
+        st = result.stages[i]
+        first, last = st.first_row, st.last_row
+        cmd_t = t[first:last]  # commands applied from these instants
+        held_t = t[first : last + 1] if last > first else t[first:first]
+        state_t = t[first : last + 1]
+        axes = sub.subplots(1, 5)
+        color = stage_color(i)
+        # Cost.
+        ax = axes[0]
+        cost = tr["cost"][first:last]
+        ax.plot(cmd_t, cost, color=color, lw=1.5)
+        finite = cost[np.isfinite(cost)]
+        if len(finite) and np.all(finite > 0) and finite.max() > 100 * finite.min():  # spans > 2 decades
+            ax.set_yscale("log")
+        ax.set_ylabel("cost $J$" + (" (log scale)" if ax.get_yscale() == "log" else ""))
+        ax.set_title("cost function", fontsize=9.5)
+        # Virtual inputs.
+        ax = axes[1]
+        ax.plot(
+            held_t,
+            step_series(tr["trailer_speed"], first, last),
+            color=color,
+            lw=1.5,
+            drawstyle="steps-post",
+            label="$V_T$",
+        )
+        ax.axhline(nmpc.speed_min, color=LIMIT_COLOR, ls="--", lw=1.0, label="bounds")
+        ax.axhline(nmpc.speed_max, color=LIMIT_COLOR, ls="--", lw=1.0)
+        ax.set_ylabel("trailer speed $V_T$ [m/s]")
+        ax.set_title("virtual input: trailer speed", fontsize=9.5)
+        ax.legend(fontsize=8, loc="best")
+        ax = axes[2]
+        if last > first:
+            low, high = virtual_steer_bounds(v, tr["hitch"][first:last], nmpc.virtual_limit)
+            ax.fill_between(
+                held_t,
+                np.degrees(step_series(np.asarray(low), 0, len(low))),
+                np.degrees(step_series(np.asarray(high), 0, len(high))),
+                step="post",
+                color=color,
+                alpha=0.12,
+                lw=0,
+                label="feasible (Eqs. 56-57)",
+            )
+        ax.plot(
+            held_t,
+            np.degrees(step_series(tr["virtual_steer"], first, last)),
+            color=color,
+            lw=1.5,
+            drawstyle="steps-post",
+            label=r"$\delta_T$",
+        )
+        limit_lines(ax, math.degrees(nmpc.virtual_limit), f"±{math.degrees(nmpc.virtual_limit):.1f}°")
+        ax.set_ylabel(r"virtual steer $\delta_T$ [deg]")
+        ax.set_title("virtual input: virtual steer", fontsize=9.5)
+        ax.legend(fontsize=8, loc="best")
+        # Trailer position and orientation in the parking frame.
+        ax = axes[3]
+        dot = "o" if len(state_t) == 1 else None  # a stage that ended at once: show its one state
+        ax.plot(state_t, gx[first : last + 1], color=color, lw=1.5, marker=dot, label="$X$ (along goal heading)")
+        ax.plot(state_t, gy[first : last + 1], color=color, lw=1.5, ls="--", marker=dot and "s", label="$Y$ (lateral)")
+        ax.axhline(0.0, color="#888888", lw=0.6)
+        ax.set_ylabel("trailer position [m] (goal frame)")
+        ax.set_title("trailer axle position", fontsize=9.5)
+        ax.legend(fontsize=8, loc="best")
+        ax = axes[4]
+        ax.plot(state_t, np.degrees(gyaw[first : last + 1]), color=color, lw=1.5, marker=dot)
+        ax.axhline(0.0, color="#888888", lw=0.6)
+        ax.set_ylabel(r"trailer yaw error $\psi_2 - \psi_{goal}$ [deg]")
+        ax.set_title("trailer orientation error", fontsize=9.5)
+        if last == first:
+            for ax in axes[:3]:
+                ax.text(0.5, 0.5, "no step applied", transform=ax.transAxes, ha="center", va="center", color="#666666")
+        for ax in axes:
+            ax.set_xlabel("time t [s]")
+            ax.grid(True, lw=0.4, alpha=0.5)
+            if len(state_t) > 1:
+                ax.set_xlim(state_t[0], state_t[-1])
+        sub.suptitle(
+            f"{stage_name(result, i)}: {st.steps} steps, {stage_summary(result, i)}",
+            fontsize=10.5,
+            color=color,
+        )
+    fig.suptitle(headline(result), fontsize=11)
+    return fig
+
+
+def _save(fig: Figure, path: Path, dpi: int) -> Path:
+    """Write ``fig`` to ``path`` and close it, even if writing fails."""
+    import matplotlib.pyplot as plt
+
+    try:
+        fig.savefig(path, dpi=dpi)
+    finally:
+        plt.close(fig)
+    return path
+
+
+def plot_maneuver(
+    result: ManeuverResult,
+    out_dir: str | Path,
+    prefix: str = "",
+    *,
+    dpi: int = 150,
+    snapshot_every: float = 2.0,
+) -> list[Path]:
+    """Write the paper's Figs. 8-15 for one maneuver as PNG files.
+
+    Parameters
+    ----------
+    result : ManeuverResult
+        A maneuver, fresh from ``park`` or loaded back from JSON.
+    out_dir : str or Path
+        Directory for the files (created if missing).
+    prefix : str
+        Prepended to each file name, e.g. ``"scenario1_"``.
+    dpi : int
+        Resolution of the PNG files.
+    snapshot_every : float
+        Time between the light body outlines drawn in each stage panel [s]; fewer are
+        drawn in long stages (at most 8 per stage).
+
+    Returns
+    -------
+    list of Path
+        ``motion.png``, ``inputs.png`` and ``nmpc.png`` (with the prefix), in that order.
+
+    Raises
+    ------
+    ValueError
+        If ``snapshot_every`` is not a positive time, or the maneuver has no rows or stages.
+    """
+    if not math.isfinite(snapshot_every) or snapshot_every <= 0:
+        raise InputError(f"snapshot_every must be a finite time > 0 s, got {snapshot_every!r}")
+    if len(result.trajectory) == 0 or not result.stages:
+        raise InputError("the maneuver has no trajectory rows or no stages: nothing to plot")
+    use_headless_backend()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    return [
+        _save(motion_figure(result, snapshot_every), out / f"{prefix}motion.png", dpi),
+        _save(inputs_figure(result), out / f"{prefix}inputs.png", dpi),
+        _save(nmpc_figure(result), out / f"{prefix}nmpc.png", dpi),
+    ]
