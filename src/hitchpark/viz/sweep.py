@@ -60,7 +60,15 @@ def plot_sweep_map(
     fig, ax = plt.subplots(figsize=(9.5, 8.0), layout="constrained")
     try:
         space = parking_space(vehicle, Pose())
-        ax.fill(space[:, 0], space[:, 1], facecolor=_SPACE_FACE, edgecolor=_SPACE_EDGE, lw=1.2, zorder=1)
+        ax.fill(
+            space[:, 0],
+            space[:, 1],
+            facecolor=_SPACE_FACE,
+            edgecolor=_SPACE_EDGE,
+            lw=1.2,
+            zorder=1,
+            label="parking space",
+        )
         ax.annotate(
             "",
             xy=(1.5, 0.0),
@@ -71,7 +79,15 @@ def plot_sweep_map(
         ax.plot([0.0], [0.0], marker="*", ms=14, color="black", ls="none", zorder=5, label="goal (trailer axle)")
         if region is not None:
             (x0, x1), (y0, y1) = region.x, region.y
-            ax.plot([x0, x1, x1, x0, x0], [y0, y0, y1, y1, y0], ls="--", lw=1.0, color="#7a7a7a", zorder=1)
+            ax.plot(
+                [x0, x1, x1, x0, x0],
+                [y0, y0, y1, y1, y0],
+                ls="--",
+                lw=1.0,
+                color="#7a7a7a",
+                zorder=1,
+                label="start region",
+            )
 
         reasons: dict[str, list[CaseRecord]] = {}
         for r in records:
