@@ -219,8 +219,15 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         plant_file=args.plant,
     )
     executor = sweep_executor(args.workers, args.dask)
-    for flag, path in (("--json", args.json), ("--map", args.map)):
-        if path is not None and path.is_dir():
+    files = {
+        flag: path
+        for flag, path in (("--out", args.out), ("--json", args.json), ("--map", args.map))
+        if path is not None
+    }
+    if len({path.resolve() for path in files.values()}) < len(files):
+        raise UsageError(f"{', '.join(files)} must name different files")
+    for flag, path in files.items():
+        if path.is_dir():
             raise UsageError(f"{flag} {path} is a folder; it must be a file")
     outcome = run_sweep(config, args.out, executor, progress=True)
     if args.json is not None:

@@ -441,6 +441,7 @@ def test_cli_exit_0_when_a_case_does_not_park(tmp_path, capsys):
         (["--plant", "PLANT"], "--plant is not supported yet"),
         (["--settings", "SETTINGS"], "unknown key success.nope"),
         (["--json", "DIR"], "--json"),
+        (["--map", "OUT"], "--out, --map must name different files"),
     ],
 )
 def test_cli_bad_input_exit_2_one_line_nothing_written(tmp_path, capsys, args, words):
@@ -448,6 +449,7 @@ def test_cli_bad_input_exit_2_one_line_nothing_written(tmp_path, capsys, args, w
     (tmp_path / "SETTINGS").write_text("[success]\nnope = 1\n", encoding="utf-8")
     (tmp_path / "DIR").mkdir()
     args = [str(tmp_path / a) if a in ("PLANT", "SETTINGS", "DIR") else a for a in args]
+    args = [str(tmp_path / "o.jsonl") if a == "OUT" else a for a in args]
     options = {"--n": "2", "--seed": "1", "--workers": "1"}
     for flag, value in zip(args[::2], args[1::2], strict=True):
         options[flag] = value

@@ -328,7 +328,7 @@ def run_sweep(
     existing = scan_records(out, starts)
     records = dict(existing.records)
     todo = [CaseTask(config, case, start) for case, start in enumerate(starts) if case not in records]
-    executor = executor or make_executor("serial")
+    executor = make_executor("serial") if executor is None else executor
     t0 = time.perf_counter()
     if todo:
         parked = sum(r.success for r in records.values())
