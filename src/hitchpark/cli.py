@@ -219,6 +219,51 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from .app.executors import sweep_executor
+    from .app.records import format_summary
+    from .app.sweep import build_config, run_sweep
+    from .io import write_json
+
+    config = build_config(
+        n=args.n,
+        seed=args.seed,
+        region=args.region,
+        vehicle=vehicle_from_args(args),
+        settings_file=args.settings,
+        plant_file=args.plant,
+    )
+    executor = sweep_executor(args.workers, args.dask)
+    files = {
+        flag: path
+        for flag, path in (("--out", args.out), ("--json", args.json), ("--map", args.map))
+        if path is not None
+    }
+    if len({path.resolve() for path in files.values()}) < len(files):
+        raise UsageError(f"{', '.join(files)} must name different files")
+    for flag, path in files.items():
+        if path.is_dir():
+            raise UsageError(f"{flag} {path} is a folder; it must be a file")
+    outcome = run_sweep(config, args.out, executor, progress=True)
+    if args.json is not None:
+        write_json(args.json, outcome.summary)
+    if args.map is not None:
+        from .viz.sweep import plot_sweep_map
+
+        plot_sweep_map(outcome.records, args.map, config.vehicle, config.region, title=f"Sweep, seed {config.seed}")
+    cut = ", a cut last line dropped" if outcome.dropped_cut_line else ""
+    print(
+        f"sweep of {config.n} starts (seed {config.seed}, region {config.region}): {outcome.ran} run now in "
+        f"{outcome.elapsed_s:.1f} s on {outcome.where}, {outcome.kept} kept from {args.out}{cut}"
+    )
+    print(format_summary(outcome.summary))
+    print(f"records: {args.out}")
+    for name, path in (("summary", args.json), ("map", args.map)):
+        if path is not None:
+            print(f"{name}: {path}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="hitchpark",
@@ -288,6 +333,38 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, metavar="DIR", help="output folder (default: beside the JSON)")
     p.add_argument("--no-animation", action="store_true", help="figures only")
     p.set_defaults(func=_cmd_plot)
+
+    p = sub.add_parser(
+        "sweep",
+        help="park from many random starts and map where it succeeds",
+        description="Park from N starts drawn uniformly from a region of the parking frame (goal at the origin, "
+        "heading 0) with a seeded generator, one JSON line per case in --out as each finishes. Run again with "
+        "the same --out to resume: finished cases are kept, only the missing ones run. Exit status 0 when every "
+        "case ran, parked or not.",
+    )
+    p.add_argument("--n", required=True, type=int, metavar="N", help="number of starts (cases)")
+    p.add_argument("--seed", required=True, type=int, metavar="S", help="seed of the random starts (>= 0)")
+    p.add_argument(
+        "--region",
+        metavar="x=LO:HI,y=LO:HI,yaw=LO:HI,hitch=LO:HI",
+        help="ranges of the trailer-axle x, y [m], yaw [deg] and hitch angle [deg]; a key left out keeps its "
+        "default (x=4:16,y=-8:8,yaw=-90:90,hitch=-30:30)",
+    )
+    p.add_argument(
+        "--settings", type=Path, metavar="FILE.toml", help="maneuver settings: [nmpc], [forward], [success] tables"
+    )
+    p.add_argument("--plant", type=Path, metavar="FILE.toml", help="plant settings (not supported yet)")
+    _add_vehicle_options(p)
+    p.add_argument("--workers", type=int, metavar="K", help="worker processes (default: one per core)")
+    p.add_argument(
+        "--dask",
+        metavar="local|ADDRESS",
+        help="run on Dask: 'local' starts a LocalCluster of --workers processes, an address joins a scheduler",
+    )
+    p.add_argument("--out", required=True, type=Path, metavar="FILE.jsonl", help="one JSON record per case")
+    p.add_argument("--json", type=Path, metavar="SUMMARY.json", help="write the summary here")
+    p.add_argument("--map", type=Path, metavar="FILE.png", help="draw the outcome over the start positions")
+    p.set_defaults(func=_cmd_sweep)
     return parser
 
 

@@ -24,7 +24,7 @@ from .common import (
 from .rig import draw_goal, rig_outlines
 
 if TYPE_CHECKING:
-    from ..maneuver.process import ManeuverResult
+    from ..maneuver.result import ManeuverResult
 
 __all__ = ["animate_maneuver"]
 

@@ -15,7 +15,7 @@ from ..model.geometry import to_goal_frame
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-    from ..maneuver.process import ManeuverResult
+    from ..maneuver.result import ManeuverResult
 
 __all__ = [
     "DF",

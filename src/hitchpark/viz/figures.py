@@ -47,7 +47,7 @@ if TYPE_CHECKING:
     from matplotlib.artist import Artist
     from matplotlib.figure import Figure
 
-    from ..maneuver.process import ManeuverResult
+    from ..maneuver.result import ManeuverResult
 
 __all__ = ["motion_figure", "nmpc_figure", "plot_maneuver"]
 

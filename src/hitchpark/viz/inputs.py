@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from ..maneuver.process import ManeuverResult
+    from ..maneuver.result import ManeuverResult
 
 __all__ = ["inputs_figure", "steer_rate_limit"]
 

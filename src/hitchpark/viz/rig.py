@@ -24,7 +24,7 @@ from .common import (
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-    from ..maneuver.process import ManeuverResult
+    from ..maneuver.result import ManeuverResult
 
 __all__ = ["draw_goal", "draw_paths", "draw_rig", "rig_outlines"]
 

@@ -1,0 +1,356 @@
+"""Sweeps: park from many random starts and see where the maneuver succeeds.
+
+A sweep is a pure function of its :class:`SweepConfig`: the ``n`` starts are drawn up front
+from ``numpy.random.default_rng(seed)``, uniformly over a :class:`Region` of the parking frame
+(trailer-axle position and heading, hitch angle; goal at the origin, heading 0), so case ``i``
+is the same whatever runs it. Each case parks once; its :class:`~.records.CaseRecord` is
+appended to a JSONL file as soon as it is known, and a sweep run again on the same file runs
+only the cases it lacks (:func:`run_sweep`).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import threading
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..checks import MAX_COORDINATE, MAX_YAW, InputError, check_int
+from ..control.nmpc import FullNMPC, TrailerNMPC, make_nmpc
+from ..control.ocp import NMPCSettings
+from ..control.pure_pursuit import PurePursuitSettings
+from ..io import read_toml
+from ..maneuver.process import park
+from ..maneuver.result import ManeuverSettings, SuccessCriteria
+from ..model.plant import PlantSettings, load_plant
+from ..model.state import Pose
+from ..model.vehicle import VehicleTrailer
+from .executors import Executor, make_executor
+from .records import CaseRecord, RecordWriter, Start, case_record, scan_records, summarize
+
+__all__ = [
+    "DEFAULT_REGION",
+    "GOAL",
+    "MAX_CASES",
+    "CaseTask",
+    "Region",
+    "SweepConfig",
+    "SweepOutcome",
+    "build_config",
+    "controller_for",
+    "draw_starts",
+    "load_settings",
+    "parse_region",
+    "run_case",
+    "run_sweep",
+    "settings_from_dict",
+]
+
+#: The goal of every case: the origin of the parking frame, heading 0.
+GOAL = Pose()
+
+#: The most cases one sweep accepts.
+MAX_CASES = 1_000_000
+
+_RANGE_KEYS = {"x": "x", "y": "y", "yaw": "yaw_deg", "hitch": "hitch_deg"}  # text key -> Region field
+
+
+def _fmt(value: float) -> str:
+    short = f"{value:g}"
+    return short if float(short) == value else repr(value)
+
+
+@dataclass(frozen=True)
+class Region:
+    """Where starts are drawn: ``(lo, hi)`` of the trailer-axle x, y [m], yaw [deg] and hitch angle [deg].
+
+    Each range is finite with lo <= hi, |x|, |y| <= ``MAX_COORDINATE`` and |yaw| <= ``MAX_YAW``;
+    the hitch range is checked against a vehicle's jackknife limit by :meth:`check_vehicle`.
+    """
+
+    x: tuple[float, float] = (4.0, 16.0)
+    y: tuple[float, float] = (-8.0, 8.0)
+    yaw_deg: tuple[float, float] = (-90.0, 90.0)
+    hitch_deg: tuple[float, float] = (-30.0, 30.0)
+
+    def __post_init__(self) -> None:
+        limits = {"x": MAX_COORDINATE, "y": MAX_COORDINATE, "yaw_deg": math.degrees(MAX_YAW), "hitch_deg": math.inf}
+        for key, name in _RANGE_KEYS.items():
+            value = getattr(self, name)
+            try:
+                lo, hi = (float(v) for v in value)
+            except (TypeError, ValueError):
+                raise InputError(f"region {key} must be a pair lo, hi of numbers, got {value!r}") from None
+            unit = " deg" if name.endswith("_deg") else " m"
+            if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
+                raise InputError(f"region {key} must be lo:hi with finite lo <= hi, got {_fmt(lo)}:{_fmt(hi)}")
+            if max(abs(lo), abs(hi)) > limits[name]:
+                raise InputError(
+                    f"region {key} must lie within -{limits[name]:g}:{limits[name]:g}{unit}, got {_fmt(lo)}:{_fmt(hi)}"
+                )
+            object.__setattr__(self, name, (lo, hi))
+
+    def check_vehicle(self, vehicle: VehicleTrailer) -> None:
+        """Raise :class:`InputError` unless every hitch angle of the region is within ``vehicle.max_hitch``."""
+        lo, hi = self.hitch_deg
+        if max(abs(math.radians(lo)), abs(math.radians(hi))) > vehicle.max_hitch:
+            limit = math.degrees(vehicle.max_hitch)
+            raise InputError(
+                f"region hitch must lie within -{limit:g}:{limit:g} deg (the vehicle's jackknife limit max_hitch), "
+                f"got {_fmt(lo)}:{_fmt(hi)}"
+            )
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(lo, hi)`` arrays in the order x, y, yaw_deg, hitch_deg."""
+        pairs = [getattr(self, name) for name in _RANGE_KEYS.values()]
+        return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+
+    def to_dict(self) -> dict[str, list[float]]:
+        return {name: list(getattr(self, name)) for name in _RANGE_KEYS.values()}
+
+    def __str__(self) -> str:
+        return ",".join(f"{k}={_fmt(getattr(self, n)[0])}:{_fmt(getattr(self, n)[1])}" for k, n in _RANGE_KEYS.items())
+
+
+DEFAULT_REGION = Region()
+
+
+def parse_region(text: str, vehicle: VehicleTrailer | None = None) -> Region:
+    """``"x=4:16,y=-8:8,yaw=-90:90,hitch=-30:30"`` -> :class:`Region`; a key left out keeps its default.
+
+    With ``vehicle``, the hitch range must also lie within its jackknife limit.
+    """
+    allowed = f"comma-separated KEY=LO:HI with KEY one of {', '.join(_RANGE_KEYS)}"
+    ranges: dict[str, tuple[float, float]] = {}
+    for item in text.split(",") if text.strip() else []:
+        key, eq, value = item.partition("=")
+        key = key.strip()
+        if not eq or key not in _RANGE_KEYS:
+            raise InputError(f"--region must be {allowed}; got the entry {item.strip()!r}")
+        if _RANGE_KEYS[key] in ranges:
+            raise InputError(f"--region gives {key} twice: {text!r}")
+        parts = value.split(":")
+        try:
+            lo, hi = (float(p) for p in parts)
+        except ValueError:
+            raise InputError(f"--region {key} must be LO:HI (two numbers), got {value.strip()!r}") from None
+        ranges[_RANGE_KEYS[key]] = (lo, hi)
+    region = Region(**ranges)
+    if vehicle is not None:
+        region.check_vehicle(vehicle)
+    return region
+
+
+def draw_starts(seed: int, n: int, region: Region) -> list[Start]:
+    """The ``n`` starts of a sweep, uniform over ``region``, all drawn up front from ``default_rng(seed)``.
+
+    Row i of the draw is case i; as the generator's stream is consumed in order, the first
+    cases of a sweep do not depend on ``n`` either.
+    """
+    seed = check_int("seed", seed, 0)
+    n = check_int("n", n, 1, MAX_CASES)
+    lo, hi = region.bounds()
+    values = np.clip(lo + np.random.default_rng(seed).random((n, 4)) * (hi - lo), lo, hi)
+    return [Start(*(float(v) for v in row)) for row in values]
+
+
+@dataclass(frozen=True, kw_only=True)
+class SweepConfig:
+    """Everything a sweep's results depend on. Picklable: it travels to the workers.
+
+    ``plant`` is passed through to :func:`~hitchpark.maneuver.park` as ``plant=`` when it is not None.
+    """
+
+    vehicle: VehicleTrailer = field(default_factory=VehicleTrailer)
+    settings: ManeuverSettings = field(default_factory=ManeuverSettings)
+    plant: PlantSettings | None = None
+    region: Region = DEFAULT_REGION
+    seed: int
+    n: int
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "seed", check_int("seed", self.seed, 0))
+        object.__setattr__(self, "n", check_int("n", self.n, 1, MAX_CASES))
+        self.vehicle.require_hitch_offset()
+        self.region.check_vehicle(self.vehicle)
+
+    def starts(self) -> list[Start]:
+        return draw_starts(self.seed, self.n, self.region)
+
+
+_SETTINGS_TABLES: dict[str, type] = {"nmpc": NMPCSettings, "forward": PurePursuitSettings, "success": SuccessCriteria}
+
+
+def settings_from_dict(data: Mapping[str, Any]) -> ManeuverSettings:
+    """:class:`ManeuverSettings` from the tables ``nmpc``, ``forward`` and ``success`` (each optional)."""
+    unknown = sorted(set(data) - set(_SETTINGS_TABLES))
+    if unknown:
+        raise InputError(f"unknown table [{unknown[0]}]; allowed: {', '.join(_SETTINGS_TABLES)}")
+    parts: dict[str, Any] = {}
+    for table, cls in _SETTINGS_TABLES.items():
+        values = data.get(table, {})
+        if not isinstance(values, Mapping):
+            raise InputError(f"[{table}] must be a table, got {values!r}")
+        allowed = tuple(f.name for f in fields(cls))
+        bad = sorted(set(values) - set(allowed))
+        if bad:
+            raise InputError(f"unknown key {table}.{bad[0]}; allowed: {', '.join(allowed)}")
+        parts[table] = cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})
+    return ManeuverSettings(**parts)
+
+
+def load_settings(path: str | Path) -> ManeuverSettings:
+    """Read :class:`ManeuverSettings` from a TOML file with ``[nmpc]``, ``[forward]``, ``[success]`` tables."""
+    data = read_toml(path, "settings")
+    try:
+        return settings_from_dict(data)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"settings file {path}: {exc}") from None
+
+
+def build_config(
+    *,
+    n: int,
+    seed: int,
+    region: str | None = None,
+    vehicle: VehicleTrailer | None = None,
+    settings_file: str | Path | None = None,
+    plant_file: str | Path | None = None,
+) -> SweepConfig:
+    """A :class:`SweepConfig` from the command's options: region text and settings and plant files."""
+    vehicle = vehicle or VehicleTrailer()
+    return SweepConfig(
+        vehicle=vehicle,
+        settings=load_settings(settings_file) if settings_file is not None else ManeuverSettings(),
+        plant=load_plant(plant_file) if plant_file is not None else None,
+        region=parse_region(region, vehicle) if region is not None else DEFAULT_REGION,
+        seed=seed,
+        n=n,
+    )
+
+
+# --------------------------------------------------------------------------- one case, in a worker
+
+_local = threading.local()
+
+
+def controller_for(config: SweepConfig) -> TrailerNMPC | FullNMPC:
+    """This worker's controller for ``config``, built once (it compiles the NLP) and then reused.
+
+    One per process and thread, so workers that run several threads never share one.
+    """
+    key = (config.vehicle, config.settings.nmpc)
+    cached: tuple[Any, TrailerNMPC | FullNMPC] | None = getattr(_local, "controller", None)
+    if cached is None or cached[0] != key:
+        cached = (key, make_nmpc(config.vehicle, config.settings.nmpc))
+        _local.controller = cached
+    return cached[1]
+
+
+@dataclass(frozen=True)
+class CaseTask:
+    """One case to run: the sweep's config, the case index and its start."""
+
+    config: SweepConfig
+    case: int
+    start: Start
+
+
+def run_case(task: CaseTask) -> CaseRecord:
+    """Park from the task's start and measure it. Runs in a worker; the controller is the worker's."""
+    config = task.config
+    controller = controller_for(config)
+    t0 = time.perf_counter()
+    result = park(
+        config.vehicle,
+        task.start.state(),
+        GOAL,
+        config.settings,
+        name=f"case {task.case}",
+        controller=controller,
+        plant=config.plant,
+    )
+    wall = time.perf_counter() - t0
+    return CaseRecord(case=task.case, start=task.start, **case_record(result, wall))
+
+
+# --------------------------------------------------------------------------- the whole sweep
+
+
+@dataclass(frozen=True)
+class SweepOutcome:
+    """A finished sweep: every record by case index, the summary, and what this run did."""
+
+    records: tuple[CaseRecord, ...]
+    summary: dict[str, Any]
+    ran: int
+    kept: int
+    dropped_cut_line: bool
+    elapsed_s: float
+    where: str
+
+
+def _progress_bar(total: int, initial: int, enabled: bool) -> Any:
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=initial, unit="case", file=sys.stderr, disable=not enabled, dynamic_ncols=True)
+
+
+def run_sweep(
+    config: SweepConfig,
+    out: str | Path,
+    executor: Executor | None = None,
+    progress: bool = False,
+    on_record: Callable[[CaseRecord], None] | None = None,
+) -> SweepOutcome:
+    """Run the cases of ``config`` that ``out`` lacks, appending a line to it as each one finishes.
+
+    ``out`` is a JSONL file of :class:`CaseRecord` lines. Lines already there are kept as they are if they
+    belong to this sweep (same start for the same case index, every index below n); a last line cut
+    off by a kill is dropped and its case run again. A file holding anything else is refused with an
+    :class:`InputError` before anything is changed. ``executor`` runs the cases (default: this
+    process); it is started only if there is something to run. ``progress`` shows a bar on stderr.
+
+    Returns the records of all n cases, old and new, and their summary (:func:`~.records.summarize`,
+    plus the seed and region).
+    """
+    out = Path(out)
+    starts = config.starts()
+    existing = scan_records(out, starts)
+    records = dict(existing.records)
+    todo = [CaseTask(config, case, start) for case, start in enumerate(starts) if case not in records]
+    executor = make_executor("serial") if executor is None else executor
+    t0 = time.perf_counter()
+    if todo:
+        parked = sum(r.success for r in records.values())
+        # The executor starts first: if it cannot (a scheduler out of reach), the file is left as it was.
+        with (
+            executor as running,
+            RecordWriter(out, existing) as writer,
+            _progress_bar(config.n, len(records), progress) as bar,
+        ):
+            for record in running.imap_unordered(run_case, todo):
+                writer.write(record)
+                records[record.case] = record
+                parked += record.success
+                bar.set_postfix_str(f"parked {parked / len(records):.1%}", refresh=False)
+                bar.update()
+                if on_record is not None:
+                    on_record(record)
+    ordered = tuple(records[case] for case in range(config.n))
+    summary = {**summarize(ordered), "seed": config.seed, "region": config.region.to_dict()}
+    return SweepOutcome(
+        records=ordered,
+        summary=summary,
+        ran=len(todo),
+        kept=len(existing.records),
+        dropped_cut_line=existing.cut_bytes > 0,
+        elapsed_s=time.perf_counter() - t0,
+        where=executor.describe(),
+    )
