@@ -16,8 +16,19 @@ from hitchpark.maneuver.scenario import BUILTIN_ORDER
 from test_cli import one_error_line, run
 from test_sim import EXPECTED_COLUMNS
 
-# The columns the issue names: those of `simulate` plus the controller's.
-TRAJECTORY_COLUMNS = {*EXPECTED_COLUMNS, "stage", "trailer_speed", "virtual_steer", "cost", "solve_ms"}
+# The columns the issue names: those of `simulate` (front_steer and rear_speed the actual values), the commands
+# issued and the hitch angle the controller saw, plus the controller's.
+TRAJECTORY_COLUMNS = {
+    *EXPECTED_COLUMNS,
+    "front_steer_cmd",
+    "rear_speed_cmd",
+    "hitch_measured",
+    "stage",
+    "trailer_speed",
+    "virtual_steer",
+    "cost",
+    "solve_ms",
+}
 STAGE_KEYS = {"kind", "steps", "distance_error_m", "orientation_error_deg", "final_hitch_deg"}
 
 START = "[start]\nx = 10.0\ny = 3.5\nyaw_deg = 0.0\nhitch_deg = 0.0\n"
@@ -55,9 +66,22 @@ def check_maneuver_file(data: dict) -> None:
     n = len(tr["t"])
     assert n == data["stages"][-1]["last_row"] + 1
     assert all(len(col) == n for col in tr.values())
+    # The paper's loop (its NMPC on the ideal plant) solves at every reverse row. On a real car a reverse stage
+    # may also stand still: turning the wheels before it moves, braking after it stops; those rows command a
+    # stop and have no solve, and the solves form one run between them.
+    paper_loop = data["settings"]["nmpc"]["kind"] == "paper" and data["plant"]["kind"] == "ideal"
+    solved: dict[int, list[int]] = {}
     for k in range(n - 1):
-        kind = data["stages"][int(tr["stage"][k])]["kind"]
-        assert (tr["solve_ms"][k] is None) == (kind == "forward"), f"row {k}"
+        index = int(tr["stage"][k])
+        kind = data["stages"][index]["kind"]
+        if kind == "forward" or paper_loop:
+            assert (tr["solve_ms"][k] is None) == (kind == "forward"), f"row {k}"
+        elif tr["solve_ms"][k] is None:
+            assert tr["rear_speed_cmd"][k] == 0.0, f"row {k}"
+        if tr["solve_ms"][k] is not None:
+            solved.setdefault(index, []).append(k)
+    for rows in solved.values():
+        assert rows == list(range(rows[0], rows[-1] + 1))
     assert tr["solve_ms"][-1] is None  # the final row is a stop, not a solve
     assert tr["rear_speed"][-1] == 0.0
     for name in TRAJECTORY_COLUMNS - {"solve_ms", "cost"}:
@@ -109,6 +133,7 @@ def test_reproduce_writes_the_summary(reproduced):
         assert data["success"] is True and data["reason"] == "parked"
         assert [{k: s[k] for k in STAGE_KEYS} for s in data["stages"]] == entry["stages"]
         assert data["goal"] == {"x": 0.0, "y": 0.0, "yaw_deg": 0.0}
+        assert data["plant"]["kind"] == "ideal" and data["settings"]["nmpc"]["kind"] == "paper"  # the paper's
     assert not list(reproduced.folder.rglob("*.png")) and not list(reproduced.folder.rglob("*.gif"))
 
 
@@ -132,18 +157,23 @@ def test_park_from_a_start(parked):
     assert start_of(data) == (10.0, 3.5, 0.0, 0.0)
     assert data["goal"] == {"x": 0.0, "y": 0.0, "yaw_deg": 0.0}
     assert data["success"] is True and len(data["stages"]) == 3
+    # Without a scenario: the full-model NMPC on the realistic car.
+    assert data["plant"]["kind"] == "realistic" and data["settings"]["nmpc"]["kind"] == "full"
     assert sorted(p.name for p in parked.folder.iterdir()) == ["maneuver.json", "trajectory.csv"]
     assert "parked" in parked.out and "maneuver.json" in parked.out
 
 
 def test_park_scenario_with_a_goal(tmp_path, capsys):
-    # The parallel start, moved with the goal so that it is the same task: (10, 3.5) in the goal's frame.
+    # The parallel start, moved with the goal so that it is the same task: (10, 3.5) in the goal's frame,
+    # parked as the built-in scenario is, by the paper's process on the ideal plant.
     gx, gy, gyaw = 1.0, 2.0, math.radians(10.0)
     x = gx + 10.0 * math.cos(gyaw) - 3.5 * math.sin(gyaw)
     y = gy + 10.0 * math.sin(gyaw) + 3.5 * math.cos(gyaw)
     scenario = tmp_path / "moved.toml"
     scenario.write_text(
-        f'name = "moved"\n[start]\nx = {x!r}\ny = {y!r}\nyaw_deg = 10.0\nhitch_deg = 0.0\n', encoding="utf-8"
+        f'name = "moved"\n[start]\nx = {x!r}\ny = {y!r}\nyaw_deg = 10.0\nhitch_deg = 0.0\n'
+        '[plant]\nkind = "ideal"\n[nmpc]\nkind = "paper"\n',
+        encoding="utf-8",
     )
     out = tmp_path / "out"
     code = run(["park", "--scenario", str(scenario), "--goal", "1,2,10", "--out", str(out), "--no-plots"])

@@ -183,9 +183,14 @@ def _cmd_park(args: argparse.Namespace) -> int:
     with staged as stage:
         files = {k: args.out / p.relative_to(stage) for k, p in save_maneuver(result, stage, plots, plots).items()}
     entry = summary_entry(result, "maneuver.json")
+    outcome = (
+        "parked"
+        if result.success
+        else f"NOT parked: {result.reason}" + (f" ({result.detail})" if result.detail else "")
+    )
     print(table5([result]))
     print(
-        f"{'parked' if result.success else 'NOT parked: ' + result.reason + (f' ({result.detail})' if result.detail else '')} after {len(result.stages)} stages, "
+        f"{outcome} after {len(result.stages)} stages, "
         f"{result.duration:.1f} s; max |front steer| {entry['max_abs_front_steer_deg']:.2f} deg, "
         f"max |hitch| {entry['max_abs_hitch_deg']:.2f} deg"
     )
@@ -313,7 +318,8 @@ def build_parser() -> argparse.ArgumentParser:
         "park",
         help="park from one start pose",
         description="Park the trailer from one start: reverse NMPC, and forward pure pursuit and reverse again as "
-        "needed, on a simulated car (--plant), and write DIR/maneuver.json, figures and an animation. Exit status 1 if it does not park.",
+        "needed, on a simulated car (--plant), and write DIR/maneuver.json"
+        ", figures and an animation. Exit status 1 if it does not park.",
     )
     p.add_argument("--start", metavar="X,Y,YAW_DEG,HITCH_DEG", help="trailer-axle pose and hitch angle (world frame)")
     p.add_argument("--goal", metavar="X,Y,YAW_DEG", help="goal trailer-axle pose (default 0,0,0 or the scenario's)")

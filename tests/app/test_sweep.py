@@ -38,11 +38,20 @@ from hitchpark.app.sweep import GOAL, controller_for, settings_from_dict
 from hitchpark.cli import EXIT_BAD_INPUT, main
 from hitchpark.control import NMPCSettings
 from hitchpark.maneuver import ManeuverSettings, SuccessCriteria, park
+from hitchpark.model import IDEAL
 
 SRC = str(Path(hitchpark.__file__).resolve().parents[1])
 
+#: The paper's process: its NMPC; with the ideal plant about 0.15 s a case, where the default (the full-model
+#: NMPC on the realistic car) takes about 1 s. The sweep machinery is tested on it; the default runs end to end
+#: in ``test_cli_sweep_writes_records_summary_and_map`` and ``test_case_record_fields_on_a_real_run``.
+PAPER = ManeuverSettings(nmpc=NMPCSettings(kind="paper"))
+
 #: A small sweep shared by several tests (module-scoped runs below).
-SMALL = SweepConfig(seed=3, n=4)
+SMALL = SweepConfig(seed=3, n=4, settings=PAPER, plant=IDEAL)
+
+#: The same as files for the command: ``--settings`` and ``--plant``.
+PAPER_TOML, IDEAL_TOML = '[nmpc]\nkind = "paper"\n', '[plant]\nkind = "ideal"\n'
 
 #: A start the first reverse stage does not park from: with max_stages = 1 it fails as max_stages.
 HARD = "x=5.6:5.6,y=-1.6:-1.6,yaw=-53:-53,hitch=-14:-14"
@@ -190,7 +199,7 @@ def test_case_record_fields_on_a_real_run():
 def test_each_worker_builds_one_controller():
     first = controller_for(SMALL)
     assert controller_for(replace(SMALL, seed=99, n=7)) is first  # same vehicle and NMPC settings
-    other = replace(SMALL, settings=ManeuverSettings(nmpc=NMPCSettings(horizon=8)))
+    other = replace(SMALL, settings=ManeuverSettings(nmpc=NMPCSettings(kind="paper", horizon=8)))
     assert controller_for(other) is not first
 
 
@@ -339,7 +348,7 @@ def test_executors_are_an_open_set(tmp_path):
                 seen.append(item.case)
                 yield fn(item)
 
-    config = replace(SMALL, n=2, settings=ManeuverSettings(nmpc=NMPCSettings(max_steps=5)))
+    config = replace(SMALL, n=2, settings=ManeuverSettings(nmpc=NMPCSettings(kind="paper", max_steps=5)))
     outcome = run_sweep(config, tmp_path / "custom.jsonl", make_executor("test-recording"))
     assert seen == [1, 0]
     assert [r["case"] for r in read_lines(tmp_path / "custom.jsonl")] == [1, 0]
@@ -384,9 +393,12 @@ def test_summary_numbers():
 
 
 def test_settings_file_tables():
-    s = settings_from_dict({"success": {"max_stages": 1}, "nmpc": {"horizon": 8, "Q": [1, 2, 3]}})
+    s = settings_from_dict({"success": {"max_stages": 1}, "nmpc": {"kind": "paper", "horizon": 8, "Q": [1, 2, 3]}})
     assert s.success == SuccessCriteria(max_stages=1)
-    assert s.nmpc.horizon == 8 and s.nmpc.Q == (1.0, 2.0, 3.0)
+    assert s.nmpc.kind == "paper" and s.nmpc.horizon == 8 and s.nmpc.Q == (1.0, 2.0, 3.0)
+    assert settings_from_dict({}) == ManeuverSettings()  # the full-model NMPC
+    with pytest.raises(InputError, match=r"nmpc\.Q must be a list of 6 numbers"):  # Q of the paper's OCP
+        settings_from_dict({"nmpc": {"Q": [1, 2, 3]}})
     with pytest.raises(InputError, match=r"unknown table \[start\]"):
         settings_from_dict({"start": {}})
     with pytest.raises(InputError, match=r"unknown key success\.foo"):
@@ -397,21 +409,29 @@ def test_settings_file_tables():
 
 
 def test_cli_sweep_writes_records_summary_and_map(tmp_path, capsys):
+    """The default sweep end to end: the full-model NMPC on the realistic car."""
     out, summary, figure = tmp_path / "s.jsonl", tmp_path / "s.json", tmp_path / "maps" / "s.png"
-    argv = ["sweep", "--n", "3", "--seed", "1", "--workers", "1", "--region", "hitch=-5:5"]
+    argv = ["sweep", "--n", "2", "--seed", "1", "--workers", "1", "--region", "hitch=-5:5"]
     assert run([*argv, "--out", str(out), "--json", str(summary), "--map", str(figure)]) == 0
     records = read_lines(out)
-    assert [r["case"] for r in records] == [0, 1, 2]
+    assert [r["case"] for r in records] == [0, 1]
     assert all(list(r) == list(RECORD_FIELDS) for r in records)
     assert all(-5 <= r["start"]["hitch_deg"] <= 5 for r in records)
+    for record in records:  # each case as park gives it with the defaults
+        start = Start(**record["start"])
+        result = park(VehicleTrailer(), start.state(), GOAL, ManeuverSettings(), name=f"case {record['case']}")
+        assert result.settings.nmpc.kind == "full" and result.plant.kind == "realistic"
+        assert {k: v for k, v in record.items() if k not in ("case", "start", "wall_s")} == {
+            k: v for k, v in case_record(result, math.nan).items() if k != "wall_s"
+        }
     data = json.loads(summary.read_text(encoding="utf-8"))
-    assert data["n"] == 3 and data["seed"] == 1 and data["region"]["hitch_deg"] == [-5.0, 5.0]
+    assert data["n"] == 2 and data["seed"] == 1 and data["region"]["hitch_deg"] == [-5.0, 5.0]
     assert {"success_rate", "by_reason", "path_length_m", "maneuver_time_s", "wall_s"} <= set(data)
     assert figure.read_bytes().startswith(b"\x89PNG")
     captured = capsys.readouterr()
-    assert f"parked {data['parked']}/3" in captured.out
+    assert f"parked {data['parked']}/2" in captured.out
     assert str(out) in captured.out and str(summary) in captured.out and str(figure) in captured.out
-    assert "3/3" in captured.err  # the progress bar
+    assert "2/2" in captured.err  # the progress bar
 
 
 def test_cli_exit_0_when_a_case_does_not_park(tmp_path, capsys):
@@ -438,14 +458,14 @@ def test_cli_exit_0_when_a_case_does_not_park(tmp_path, capsys):
         (["--region", "speed=1:2"], "--region must be"),
         (["--dask", " "], "--dask must be 'local' or a scheduler address"),
         (["--n", "many"], "invalid int value"),
-        (["--plant", "PLANT"], "--plant is not supported yet"),
+        (["--plant", "PLANT"], "plant.steer_rate_max"),
         (["--settings", "SETTINGS"], "unknown key success.nope"),
         (["--json", "DIR"], "--json"),
         (["--map", "OUT"], "--out, --map must name different files"),
     ],
 )
 def test_cli_bad_input_exit_2_one_line_nothing_written(tmp_path, capsys, args, words):
-    (tmp_path / "PLANT").write_text("[plant]\n", encoding="utf-8")
+    (tmp_path / "PLANT").write_text("[plant]\nsteer_rate_max = -1.0\n", encoding="utf-8")
     (tmp_path / "SETTINGS").write_text("[success]\nnope = 1\n", encoding="utf-8")
     (tmp_path / "DIR").mkdir()
     args = [str(tmp_path / a) if a in ("PLANT", "SETTINGS", "DIR") else a for a in args]
@@ -471,7 +491,10 @@ def test_cli_refuses_a_foreign_out_file(tmp_path, capsys):
 
 def test_killed_sweep_resumes_without_changing_finished_lines(tmp_path):
     out = tmp_path / "killed.jsonl"
-    argv = ["sweep", "--n", "16", "--seed", "11", "--workers", "2", "--out", str(out)]
+    (tmp_path / "paper.toml").write_text(PAPER_TOML, encoding="utf-8")
+    (tmp_path / "ideal.toml").write_text(IDEAL_TOML, encoding="utf-8")
+    files = ["--settings", str(tmp_path / "paper.toml"), "--plant", str(tmp_path / "ideal.toml")]
+    argv = ["sweep", "--n", "16", "--seed", "11", *files, "--workers", "2", "--out", str(out)]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (SRC, os.environ.get("PYTHONPATH")) if p)}
     code = "import sys; from hitchpark.cli import main; sys.exit(main(sys.argv[1:]))"
     proc = subprocess.Popen(

@@ -10,13 +10,15 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from hitchpark.control import NMPCSettings, TrailerNMPC
-from hitchpark.model import Pose, to_goal_frame, wrap_angle
 from hitchpark.model import (
+    Pose,
     VehicleTrailer,
     front_steer_from_virtual,
     rear_speed_from_trailer_speed,
     step_full,
+    to_goal_frame,
     virtual_steer_bounds,
+    wrap_angle,
 )
 
 Q4, R4, P4 = np.diag([1.0, 10.0, 10.0]), np.diag([0.0, 0.1]), np.diag([1.0, 10.0, 10.0])
@@ -52,7 +54,9 @@ def horizon_cost(states: np.ndarray, inputs: np.ndarray) -> float:
 def controllers() -> dict[str, TrailerNMPC]:
     vehicle = VehicleTrailer()
     return {
-        name: TrailerNMPC(vehicle, NMPCSettings(kind="paper", solver=solver, transcription=transcription, fallback_solver=None))
+        name: TrailerNMPC(
+            vehicle, NMPCSettings(kind="paper", solver=solver, transcription=transcription, fallback_solver=None)
+        )
         for name, solver, transcription in (
             ("sqp/ms", "sqp", "multiple_shooting"),
             ("sqp/ss", "sqp", "single_shooting"),
@@ -210,7 +214,9 @@ def test_controller_needs_a_hitch_offset():
     ("solver", "options"), [("sqp", {"max_iter": 0}), ("ipopt", {"ipopt.max_iter": 0})], ids=["sqp", "ipopt"]
 )
 def test_solver_failure_commands_a_stop(solver, options):
-    nmpc = TrailerNMPC(VehicleTrailer(), NMPCSettings(kind="paper", solver=solver, fallback_solver=None, solver_options=options))
+    nmpc = TrailerNMPC(
+        VehicleTrailer(), NMPCSettings(kind="paper", solver=solver, fallback_solver=None, solver_options=options)
+    )
     assert nmpc.fallback is None
     u = nmpc.step(10.0, 3.5, 0.0, math.radians(10.0))
     assert nmpc.solver.stats()["success"] is False  # the options do make it fail
@@ -223,7 +229,8 @@ def test_solver_failure_commands_a_stop(solver, options):
 
 def test_fallback_solver_rescues_a_failing_primary():
     nmpc = TrailerNMPC(
-        VehicleTrailer(), NMPCSettings(kind="paper", solver="sqp", fallback_solver="ipopt", solver_options={"max_iter": 0})
+        VehicleTrailer(),
+        NMPCSettings(kind="paper", solver="sqp", fallback_solver="ipopt", solver_options={"max_iter": 0}),
     )
     u = nmpc.step(10.0, 3.5, 0.0, 0.0)
     assert nmpc.solver.stats()["success"] is False

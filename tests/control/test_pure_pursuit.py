@@ -9,15 +9,15 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from hitchpark.model import Pose
+from hitchpark.control import NMPCSettings
 from hitchpark.control.pure_pursuit import (
     PurePursuitSettings,
     forward_done,
     forward_steer_limit,
     pure_pursuit_steer,
 )
-from hitchpark.maneuver import park
-from hitchpark.model import VehicleTrailer, full_rhs, rear_axle_pose, step_full
+from hitchpark.maneuver import ManeuverSettings, park
+from hitchpark.model import IDEAL, Pose, VehicleTrailer, full_rhs, rear_axle_pose, step_full
 from hitchpark.sim import State
 
 SETTINGS = PurePursuitSettings()
@@ -74,11 +74,19 @@ def test_forward_steer_limit_holds_the_hitch_inside_max_hitch(table4):
     assert full_rhs(table4, np.array([0.0, 0.0, 0.0, table4.max_hitch]), np.array([1.0, table4.max_steer]))[3] > 0
 
 
+@pytest.mark.parametrize(
+    ("settings", "plant"),
+    [(ManeuverSettings(nmpc=NMPCSettings(kind="paper")), IDEAL), (ManeuverSettings(), None)],
+    ids=["paper", "full"],
+)
 @pytest.mark.parametrize("start", [(4.62, -2.06, 132.24, 15.86), (10.0, 0.0, 180.0, 0.0), (-8.22, -12.17, 147.0, 30.6)])
-def test_forward_stage_neither_jackknifes_nor_stalls(table4, start):
-    """Starts where an uncapped pursuit jackknifed or drove straight away from the line: they park."""
+def test_forward_stage_neither_jackknifes_nor_stalls(table4, start, settings, plant):
+    """Starts where an uncapped pursuit jackknifed or drove straight away from the line: they park.
+
+    In the paper's process (plain pure pursuit, the ideal plant) and in the full one (the realistic car).
+    """
     x, y, yaw, hitch = start
-    result = park(table4, State(x, y, math.radians(yaw), math.radians(hitch)))
+    result = park(table4, State(x, y, math.radians(yaw), math.radians(hitch)), settings=settings, plant=plant)
     assert result.success, result.reason
     assert any(s.kind == "forward" for s in result.stages)
     assert result.max_abs_hitch_deg < math.degrees(table4.max_hitch)

@@ -20,8 +20,8 @@ from typing import Any
 import casadi
 import numpy
 
-from hitchpark.io import write_json
 from hitchpark.app.report import run_scenario
+from hitchpark.io import write_json
 from hitchpark.maneuver import ManeuverResult, builtin_scenarios
 
 REFERENCE_PATH = Path(__file__).with_name("reference.json")

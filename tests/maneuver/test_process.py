@@ -1,7 +1,9 @@
 """The 3-stage process (Fig. 7, hitchpark.maneuver.process): records, NMPC use, stops, frames.
 
 The four built-in scenarios are parked once per session (``make_reference.builtin_results``)
-and shared; the few extra maneuvers here are the ones a property needs.
+and shared; the few extra maneuvers here are the ones a property needs. Everything here is
+the paper's process (its NMPC, ``PAPER``, on the ideal plant, ``IDEAL``), as the built-in
+scenarios carry it, unless a test says otherwise.
 """
 
 from __future__ import annotations
@@ -14,8 +16,7 @@ import numpy as np
 import pytest
 from make_reference import builtin_results
 
-from hitchpark.control import NMPCSettings, TrailerNMPC
-from hitchpark.model import Pose, to_goal_frame
+from hitchpark.control import FullNMPC, NMPCSettings, TrailerNMPC
 from hitchpark.control.pure_pursuit import PurePursuitSettings, pure_pursuit_steer
 from hitchpark.io import to_jsonable
 from hitchpark.maneuver import (
@@ -29,10 +30,13 @@ from hitchpark.maneuver import (
 )
 from hitchpark.maneuver.scenario import BUILTIN_ORDER
 from hitchpark.model import (
+    IDEAL,
+    Pose,
     VehicleTrailer,
     front_steer_from_virtual,
     rear_speed_from_trailer_speed,
     step_full,
+    to_goal_frame,
     trailer_speed_from_rear_speed,
     virtual_steer_bounds,
     virtual_steer_from_front,
@@ -40,6 +44,9 @@ from hitchpark.model import (
 from hitchpark.sim import State
 
 COMMAND_COLUMNS = ("rear_speed", "front_steer", "trailer_speed", "virtual_steer")
+
+#: The paper's process: its NMPC (Table 4); with the ideal plant (``IDEAL``) it is the paper's closed loop.
+PAPER = ManeuverSettings(nmpc=NMPCSettings(kind="paper"))
 
 
 @pytest.fixture(scope="module")
@@ -158,17 +165,18 @@ def test_reverse_stages_end_on_a_zero_speed_answer(name, results, scenarios):
     for index, st in reverse:
         assert st.steps > 0
         assert abs(result.trajectory["trailer_speed"][st.last_row - 1]) >= stop_speed
-        fresh = TrailerNMPC(sc.vehicle, sc.settings.nmpc, sc.goal)
-        u = fresh.step(*result.trajectory.states()[st.last_row])
+        fresh = TrailerNMPC(sc.vehicle, sc.settings.nmpc)
+        u = fresh.step(*result.trajectory.states()[st.last_row], sc.goal)
         assert u.ok, f"stage {index + 1}: {u.status}"
         assert abs(u.trailer_speed) < stop_speed
         assert u.stop
         assert u.rear_speed == 0.0
 
 
+@pytest.mark.parametrize(("settings", "plant"), [(PAPER, IDEAL), (ManeuverSettings(), None)], ids=["paper", "full"])
 @pytest.mark.parametrize("goal", [Pose(), Pose(5.0, -3.0, math.radians(30.0))])
-def test_starting_at_the_goal_parks_at_once(goal):
-    result = park(VehicleTrailer(), State(goal.x, goal.y, goal.yaw, 0.0), goal)
+def test_starting_at_the_goal_parks_at_once(goal, settings, plant):
+    result = park(VehicleTrailer(), State(goal.x, goal.y, goal.yaw, 0.0), goal, settings, plant=plant)
     assert result.success and result.reason == "parked"
     assert len(result.stages) == 1
     only = result.stages[0]
@@ -184,7 +192,7 @@ def test_starting_at_the_goal_parks_at_once(goal):
 def test_timeout(scenarios):
     sc = scenarios["parallel"]
     settings = replace(sc.settings, success=SuccessCriteria(max_time=5.0))
-    result = park(sc.vehicle, sc.start, sc.goal, settings)
+    result = park(sc.vehicle, sc.start, sc.goal, settings, plant=sc.plant)
     assert not result.success and result.reason == "timeout"
     assert len(result.stages) == 1 and result.stages[0].reason == "timeout"
     assert result.duration == pytest.approx(5.0, abs=1e-9)
@@ -194,14 +202,14 @@ def test_timeout(scenarios):
 def test_max_stages(scenarios, results):
     sc = scenarios["parallel"]
     settings = replace(sc.settings, success=SuccessCriteria(max_stages=1))
-    result = park(sc.vehicle, sc.start, sc.goal, settings)
+    result = park(sc.vehicle, sc.start, sc.goal, settings, plant=sc.plant)
     assert not result.success and result.reason == "max_stages"
     assert result.stages == results["parallel"].stages[:1]  # the same first stage, then no forward stage
 
 
 def test_reverse_stage_stalls_after_max_steps(scenarios):
     sc = scenarios["parallel"]
-    result = park(sc.vehicle, sc.start, sc.goal, with_nmpc(sc.settings, max_steps=5))
+    result = park(sc.vehicle, sc.start, sc.goal, with_nmpc(sc.settings, max_steps=5), plant=sc.plant)
     assert not result.success and result.reason == "stalled"
     assert [(s.kind, s.steps, s.reason) for s in result.stages] == [("reverse", 5, "stalled")]
 
@@ -210,7 +218,8 @@ def test_reverse_stage_stalls_after_max_steps(scenarios):
 def forward_stalled(scenarios) -> ManeuverResult:
     """The parallel scenario with a forward stage allowed 1 m only."""
     sc = scenarios["parallel"]
-    return park(sc.vehicle, sc.start, sc.goal, replace(sc.settings, forward=PurePursuitSettings(max_distance=1.0)))
+    settings = replace(sc.settings, forward=PurePursuitSettings(max_distance=1.0))
+    return park(sc.vehicle, sc.start, sc.goal, settings, plant=sc.plant)
 
 
 def test_forward_stage_stalls_after_max_distance(forward_stalled, results):
@@ -238,12 +247,20 @@ def test_bad_inputs_are_rejected():
 # --- the controller can fail: the maneuver stops safely ---------------------------------------
 
 
-def test_solver_failure_stops_the_maneuver():
-    settings = ManeuverSettings(nmpc=NMPCSettings(fallback_solver=None, solver_options={"max_iter": 0}))
-    result = park(VehicleTrailer(), State(10.0, 3.5, 0.0, 0.0), settings=settings)
+@pytest.mark.parametrize(
+    ("nmpc", "plant"),
+    [
+        (NMPCSettings(kind="paper", fallback_solver=None, solver_options={"max_iter": 0}), IDEAL),
+        (NMPCSettings(solver="ipopt", fallback_solver=None, solver_options={"ipopt.max_iter": 0}), None),
+    ],
+    ids=["paper", "full"],
+)
+def test_solver_failure_stops_the_maneuver(nmpc, plant):
+    """A reverse stage whose solver fails before it moved ends the maneuver, in either process."""
+    result = park(VehicleTrailer(), State(10.0, 3.5, 0.0, 0.0), settings=ManeuverSettings(nmpc=nmpc), plant=plant)
     assert not result.success
-    assert result.reason.startswith("solver")
-    assert result.stages[0].reason == result.reason and result.stages[0].steps == 0
+    assert result.reason == "solver" and result.detail
+    assert result.stages[0].reason == f"solver: {result.detail}" and result.stages[0].steps == 0
     tr = result.trajectory
     assert len(tr) == 1
     assert tr["rear_speed"][-1] == 0.0 and tr["trailer_speed"][-1] == 0.0
@@ -291,16 +308,16 @@ class FailingSolver:
 def test_injected_failure_mid_stage_stops_safely(mode, status, scenarios, results):
     sc = scenarios["parallel"]
     good = 20
-    controller = TrailerNMPC(sc.vehicle, sc.settings.nmpc, sc.goal)
+    controller = TrailerNMPC(sc.vehicle, sc.settings.nmpc)
     switch = Switch(good, mode)
     controller.solver = FailingSolver(controller.solver, switch, primary=True)
     controller.fallback = FailingSolver(controller.fallback, switch, primary=False)
-    result = park(sc.vehicle, sc.start, sc.goal, sc.settings, controller=controller)
+    result = park(sc.vehicle, sc.start, sc.goal, sc.settings, controller=controller, plant=sc.plant)
 
     assert not result.success
-    assert result.reason.startswith("solver") and status in result.reason
-    assert len(result.stages) == 1
-    assert result.stages[0].steps == good and result.stages[0].reason == result.reason
+    assert result.reason == "solver" and status in result.detail
+    assert len(result.stages) == 1  # the paper's process ends at the failure: no forward stage follows
+    assert result.stages[0].steps == good and result.stages[0].reason == f"solver: {result.detail}"
     tr, ref = result.trajectory, results["parallel"].trajectory
     assert len(tr) == good + 1
     for col in (c for c in MANEUVER_COLUMNS if c != "solve_ms"):  # until the failure, nothing changed
@@ -313,6 +330,35 @@ def test_injected_failure_mid_stage_stops_safely(mode, status, scenarios, result
     assert np.all(np.abs(tr["front_steer"]) <= sc.vehicle.max_steer)
 
 
+def test_full_process_hands_a_failed_reverse_stage_over_to_the_forward_stage():
+    """In the full process a reverse stage that moved and then fails stops the car; a forward stage follows."""
+    sc = next(s for s in builtin_scenarios() if s.name == "parallel")
+    settings = ManeuverSettings()  # the full-model NMPC, on the realistic car
+    controller = FullNMPC(sc.vehicle, settings.nmpc)
+    switch = Switch(20, "raise")
+    controller.solver = FailingSolver(controller.solver, switch, primary=True)
+    controller.fallback = FailingSolver(controller.fallback, switch, primary=False)
+    result = park(sc.vehicle, sc.start, sc.goal, settings, controller=controller)
+
+    assert not result.success
+    assert result.reason == "solver" and "injected evaluation error" in result.detail
+    failed = f"solver: {result.detail}"
+    assert [(s.kind, s.reason) for s in result.stages] == [
+        ("reverse", failed),
+        ("forward", "repositioned"),
+        ("reverse", failed),  # every solve fails now: this one cannot start, and that ends the maneuver
+    ]
+    assert result.stages[2].steps == 0
+    tr, first = result.trajectory, result.stages[0]
+    solved = [k for k in range(first.first_row, first.last_row) if np.isfinite(tr["solve_ms"][k])]
+    assert solved and solved == list(range(solved[0], solved[-1] + 1))
+    after = list(range(solved[-1] + 1, first.last_row))  # braking: stops only, the car at rest at the end
+    assert after and np.all(tr["rear_speed_cmd"][after] == 0.0)
+    assert tr["rear_speed"][first.last_row] == 0.0 and tr["rear_speed"][-1] == 0.0
+    real = result.plant_vehicle
+    assert np.all(np.abs(tr["front_steer"]) <= real.max_steer) and np.all(np.abs(tr["hitch"]) <= real.max_hitch)
+
+
 # --- the same maneuver whatever the solver, transcription or world frame ----------------------
 
 
@@ -323,7 +369,7 @@ def test_injected_failure_mid_stage_stops_safely(mode, status, scenarios, result
 )
 def test_solver_and_transcription_do_not_change_the_maneuver(changes, scenarios, results):
     sc, base = scenarios["random"], results["random"]
-    result = park(sc.vehicle, sc.start, sc.goal, with_nmpc(sc.settings, **changes))
+    result = park(sc.vehicle, sc.start, sc.goal, with_nmpc(sc.settings, **changes), plant=sc.plant)
     assert result.success == base.success and result.reason == base.reason
     assert [s.kind for s in result.stages] == [s.kind for s in base.stages]
     for k, (got, ref) in enumerate(zip(result.stages, base.stages, strict=True)):
@@ -343,7 +389,7 @@ def test_goal_anywhere_in_the_world(name, scenarios, results):
     """The maneuver depends on the start relative to the goal only, not on the world frame."""
     sc, base = scenarios[name], results[name]
     goal = Pose(5.0, -3.0, math.radians(30.0))
-    result = park(sc.vehicle, moved(goal, sc.start), goal, sc.settings)
+    result = park(sc.vehicle, moved(goal, sc.start), goal, sc.settings, plant=sc.plant)
     assert result.success == base.success and result.reason == base.reason
     assert len(result.stages) == len(base.stages)
     for got, ref in zip(result.stages, base.stages, strict=True):
@@ -362,9 +408,9 @@ def test_goal_anywhere_in_the_world(name, scenarios, results):
 
 def test_a_reused_controller_gives_the_same_maneuver(scenarios, results):
     first, second = scenarios["parallel_hitch"], scenarios["parallel"]
-    controller = TrailerNMPC(second.vehicle, second.settings.nmpc, second.goal)
-    park(first.vehicle, first.start, first.goal, first.settings, controller=controller)
-    again = park(second.vehicle, second.start, second.goal, second.settings, controller=controller)
+    controller = TrailerNMPC(second.vehicle, second.settings.nmpc)
+    park(first.vehicle, first.start, first.goal, first.settings, controller=controller, plant=first.plant)
+    again = park(second.vehicle, second.start, second.goal, second.settings, controller=controller, plant=second.plant)
     assert again.stages == results["parallel"].stages
     for col in MANEUVER_COLUMNS:
         if col != "solve_ms":
@@ -398,7 +444,7 @@ def test_json_round_trip(name, results):
 def test_reverse_stage_stops_before_a_jackknife():
     """The NMPC does not know max_hitch; the plant step that would pass it is refused and the maneuver ends."""
     vehicle = VehicleTrailer(max_hitch=math.radians(30.0))
-    result = park(vehicle, State(10.0, 3.5, 0.0, 0.0))  # unlimited, this start bends to 38 deg in stage 1
+    result = park(vehicle, State(10.0, 3.5, 0.0, 0.0), settings=PAPER, plant=IDEAL)  # unlimited: 38 deg in stage 1
     assert not result.success and result.reason == "jackknife"
     assert result.stages[-1].reason == "jackknife"
     assert result.max_abs_hitch_deg <= 30.0
@@ -412,9 +458,19 @@ def test_nmpc_refuses_a_hitch_beyond_the_limit(table4):
     assert step.rear_speed == 0.0 and math.isfinite(step.front_steer) and abs(step.front_steer) <= table4.max_steer
 
 
-def test_park_rejects_a_controller_built_for_another_goal(table4):
-    with pytest.raises(ValueError, match="controller"):
-        park(table4, State(15.0, 8.5, 0.0, 0.0), goal=Pose(5.0, 5.0, 0.0), controller=TrailerNMPC(table4))
+def test_a_controller_serves_any_goal_but_only_its_own_settings(table4, results):
+    """The goal is a parameter of the step: a controller built with none parks at (5, 5) as at the origin."""
+    start, goal = State(15.0, 8.5, 0.0, 0.0), Pose(5.0, 5.0, 0.0)  # the parallel scenario, moved by (5, 5)
+    result = park(table4, start, goal, PAPER, controller=TrailerNMPC(table4, PAPER.nmpc), plant=IDEAL)
+    assert [(s.kind, s.steps, s.reason) for s in result.stages] == [
+        (s.kind, s.steps, s.reason) for s in results["parallel"].stages
+    ]
+    with pytest.raises(ValueError, match="controller"):  # another NMPC: the default (full) one
+        park(table4, start, goal, controller=TrailerNMPC(table4))
+    with pytest.raises(ValueError, match="controller"):  # other NMPC settings of the same kind
+        park(table4, start, goal, PAPER, controller=TrailerNMPC(table4, NMPCSettings(kind="paper", horizon=8)))
+    with pytest.raises(ValueError, match="controller"):  # another vehicle
+        park(table4, start, goal, PAPER, controller=TrailerNMPC(VehicleTrailer(wheelbase=3.0), PAPER.nmpc))
 
 
 def _saved(results) -> dict:

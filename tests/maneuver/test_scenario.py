@@ -8,11 +8,10 @@ from pathlib import Path
 import pytest
 
 from hitchpark.control import NMPCSettings
-from hitchpark.model import Pose
 from hitchpark.control.pure_pursuit import PurePursuitSettings
 from hitchpark.maneuver import ManeuverSettings, SuccessCriteria, builtin_scenarios, load_scenario
 from hitchpark.maneuver.scenario import BUILTIN_ORDER
-from hitchpark.model import VehicleTrailer
+from hitchpark.model import IDEAL, PlantSettings, Pose, VehicleTrailer
 
 # The starts each shipped file documents in its comments and description: (x, y, yaw_deg, hitch_deg).
 DOCUMENTED_STARTS = {
@@ -45,7 +44,15 @@ hitch_offset = 1.0
 trailer_length = 2.5
 max_steer = 0.6
 
+[plant]
+delay_steps = 1
+hitch_noise_std_deg = 0.5
+
+[plant.vehicle]
+hitch_offset = 1.1
+
 [nmpc]
+kind = "paper"
 dt = 0.05
 horizon = 20
 Q = [1.0, 5.0, 5.0]
@@ -86,7 +93,9 @@ def test_builtins_load_with_the_documented_starts():
         assert sc.start.hitch == pytest.approx(math.radians(hitch_deg), abs=1e-15)
         assert sc.goal == Pose()
         assert sc.vehicle == VehicleTrailer()  # Table 4
-        assert sc.settings == ManeuverSettings()  # Table 4 and the forward-stage defaults
+        # The paper's process: Table 4's NMPC and the forward-stage defaults, on the ideal plant.
+        assert sc.settings == ManeuverSettings(nmpc=NMPCSettings(kind="paper"))
+        assert sc.plant == IDEAL
         assert sc.description
         assert sc.path is not None and sc.path.name == f"{sc.name}.toml"
 
@@ -100,7 +109,9 @@ def test_user_file_round_trip(tmp_path):
     assert sc.start.hitch == pytest.approx(math.radians(-5.0))
     assert sc.goal == Pose(1.0, 2.0, math.radians(10.0))
     assert sc.vehicle == VehicleTrailer(wheelbase=3.0, hitch_offset=1.0, trailer_length=2.5, max_steer=0.6)
+    assert sc.plant == PlantSettings(vehicle={"hitch_offset": 1.1}, delay_steps=1, hitch_noise_std_deg=0.5)
     assert sc.settings.nmpc == NMPCSettings(
+        kind="paper",
         dt=0.05,
         horizon=20,
         Q=(1.0, 5.0, 5.0),
@@ -123,7 +134,8 @@ def test_minimal_file_takes_the_defaults(tmp_path):
     assert sc.name == "my_space"  # from the file name
     assert sc.goal == Pose(0.0, -1.5, 0.0)
     assert sc.vehicle == VehicleTrailer()
-    assert sc.settings == ManeuverSettings()
+    assert sc.settings == ManeuverSettings()  # the full-model NMPC
+    assert sc.plant == PlantSettings()  # the realistic car
 
 
 BAD_FILES = {

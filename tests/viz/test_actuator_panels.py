@@ -1,8 +1,9 @@
 """The inputs figure with a steering actuator: commanded vs. actual steer and speed, steer rate, measured hitch.
 
-No part of the package produces these columns yet, so the tests take a real maneuver and add
-them: the actual steer follows the command at a limited rate, the actual speed lags the
-command, and the measured hitch is the true one plus a bias and seeded noise.
+The tests take the paper's maneuver (the ideal plant: the actual steer and speed are the commands,
+the measured hitch the true one) and fabricate an actuator the figure must show: the actual
+steer follows the command at a limited rate, the actual speed lags the command, and the measured
+hitch is the true one plus a bias and seeded noise.
 """
 
 from __future__ import annotations
@@ -16,8 +17,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from hitchpark.app.report import run_scenario
 from hitchpark.io import read_json, write_json
-from hitchpark.maneuver import ManeuverResult, builtin_scenarios, run_scenario
+from hitchpark.maneuver import ManeuverResult, builtin_scenarios
+from hitchpark.model import IDEAL, PlantSettings
 from hitchpark.sim import Trajectory
 from hitchpark.viz.inputs import inputs_figure, steer_rate_limit
 from hitchpark.viz.maneuver import plot_maneuver
@@ -34,16 +37,9 @@ NEW_COLUMNS = ("front_steer_cmd", "rear_speed_cmd", "hitch_measured")
 
 @dataclasses.dataclass(frozen=True)
 class Plant:
-    """Stands in for the plant settings a result will carry: only the steer-rate limit matters here."""
+    """Stands in for other plant settings a result may carry: only the steer-rate limit matters here."""
 
     steer_rate_max: float | None
-
-
-@dataclasses.dataclass(frozen=True)
-class WithPlant(ManeuverResult):
-    """A result that also carries a plant, as results with a steering actuator will."""
-
-    plant: Plant | None = None
 
 
 def with_actuator(result: ManeuverResult, steer_rate_max: float = STEER_RATE_MAX, seed: int = 0) -> ManeuverResult:
@@ -67,21 +63,24 @@ def with_actuator(result: ManeuverResult, steer_rate_max: float = STEER_RATE_MAX
     return dataclasses.replace(result, trajectory=Trajectory(columns))
 
 
-def with_plant(result: ManeuverResult, plant: Plant | None) -> WithPlant:
-    fields = {f.name: getattr(result, f.name) for f in dataclasses.fields(ManeuverResult)}
-    return WithPlant(**fields, plant=plant)
+def without_new_columns(result: ManeuverResult) -> ManeuverResult:
+    """``result`` with a trajectory that lacks the actuator columns, as other tools may build one."""
+    columns = {k: v for k, v in result.trajectory.columns.items() if k not in NEW_COLUMNS}
+    return dataclasses.replace(result, trajectory=Trajectory(columns))
 
 
 @pytest.fixture(scope="module")
 def parallel() -> ManeuverResult:
-    """The built-in parallel scenario as ``park`` returns it (no actuator columns; about 0.2 s)."""
+    """The built-in parallel scenario as ``park`` returns it: the paper's process on the ideal plant (~0.2 s)."""
     scenario = next(s for s in builtin_scenarios() if s.name == "parallel")
-    return run_scenario(scenario)
+    result = run_scenario(scenario)
+    assert result.plant == IDEAL
+    return result
 
 
 @pytest.fixture(scope="module")
-def actuated(parallel: ManeuverResult) -> WithPlant:
-    return with_plant(with_actuator(parallel), Plant(STEER_RATE_MAX))
+def actuated(parallel: ManeuverResult) -> ManeuverResult:
+    return dataclasses.replace(with_actuator(parallel), plant=PlantSettings(steer_rate_max=STEER_RATE_MAX))
 
 
 @pytest.fixture
@@ -113,7 +112,7 @@ def only(ax: Axes, prefix: str) -> np.ndarray:
     return np.asarray(found[0].get_ydata(), dtype=float)
 
 
-def test_panels_show_commanded_actual_rate_and_measured(actuated: WithPlant, figure_of) -> None:
+def test_panels_show_commanded_actual_rate_and_measured(actuated: ManeuverResult, figure_of) -> None:
     panels = figure_of(actuated)
     assert list(panels) == ["front_steer", "steer_rate", "rear_speed", "hitch"]
     tr = actuated.trajectory
@@ -147,36 +146,56 @@ def test_panels_show_commanded_actual_rate_and_measured(actuated: WithPlant, fig
 
 
 def test_a_maneuver_without_the_new_columns_still_plots(parallel: ManeuverResult, figure_of) -> None:
-    assert not any(name in parallel.trajectory for name in NEW_COLUMNS)
-    panels = figure_of(parallel)
+    legacy = without_new_columns(parallel)
+    assert not any(name in legacy.trajectory for name in NEW_COLUMNS)
+    panels = figure_of(legacy)
     assert list(panels) == ["front_steer", "steer_rate", "rear_speed", "hitch"]
     for ax in panels.values():
         assert not lines(ax, "commanded") and not lines(ax, "actual")
     assert not lines(panels["hitch"], "measured") and not lines(panels["hitch"], "true")
-    # The steer here is the command itself, so its rate is that of a command; no plant, no rate limit.
-    tr = parallel.trajectory
+    # The steer here is the command itself, so its rate is that of a command; the ideal plant, no rate limit.
+    tr = legacy.trajectory
     rate = only(panels["steer_rate"], "change per step")
     np.testing.assert_allclose(rate[1:], np.degrees(np.diff(tr["front_steer"]) / np.diff(tr["t"])))
     assert not any("limit" in label for label in panels["steer_rate"].get_legend_handles_labels()[1])
 
 
-@pytest.mark.parametrize("plant", [None, Plant(None), Plant(math.inf)], ids=["no plant", "no limit", "inf"])
-def test_no_rate_limit_line_without_a_finite_limit(actuated: WithPlant, plant: Plant | None, figure_of) -> None:
+@pytest.mark.parametrize(
+    "plant", [None, Plant(None), Plant(math.inf), IDEAL], ids=["no plant", "no limit", "inf", "ideal plant"]
+)
+def test_no_rate_limit_line_without_a_finite_limit(actuated: ManeuverResult, plant: object, figure_of) -> None:
     result = dataclasses.replace(actuated, plant=plant)
     assert steer_rate_limit(result) is None
     labels = figure_of(result)["steer_rate"].get_legend_handles_labels()[1]
     assert labels and not any("limit" in label for label in labels)
-    assert steer_rate_limit(with_plant(actuated, Plant(0.5))) == 0.5
+    assert steer_rate_limit(dataclasses.replace(actuated, plant=Plant(0.5))) == 0.5
+    assert steer_rate_limit(dataclasses.replace(actuated, plant=PlantSettings(steer_rate_max=0.5))) == 0.5
 
 
-def test_each_new_curve_needs_its_own_column(actuated: WithPlant, figure_of) -> None:
+def test_an_old_file_reads_as_the_ideal_plant(parallel: ManeuverResult, figure_of) -> None:
+    """A maneuver.json written before the plant existed: the commands acted at once, the hitch was measured exactly."""
+    data = parallel.to_dict()
+    del data["plant"], data["detail"]
+    for name in NEW_COLUMNS:
+        del data["trajectory"][name]
+    old = ManeuverResult.from_dict(data)
+    assert old.plant == IDEAL and steer_rate_limit(old) is None
+    tr = old.trajectory
+    np.testing.assert_array_equal(tr["front_steer_cmd"], tr["front_steer"])
+    np.testing.assert_array_equal(tr["rear_speed_cmd"], tr["rear_speed"])
+    np.testing.assert_array_equal(tr["hitch_measured"], tr["hitch"])
+    panels = figure_of(old)
+    np.testing.assert_allclose(only(panels["front_steer"], "commanded"), only(panels["front_steer"], "actual"))
+
+
+def test_each_new_curve_needs_its_own_column(actuated: ManeuverResult, figure_of) -> None:
     columns = {k: v for k, v in actuated.trajectory.columns.items() if k != "hitch_measured"}
     panels = figure_of(dataclasses.replace(actuated, trajectory=Trajectory(columns)))
     assert not lines(panels["hitch"], "measured")
     assert lines(panels["front_steer"], "commanded") and lines(panels["rear_speed"], "commanded")
 
 
-def test_plot_maneuver_writes_the_figures_from_a_saved_file(actuated: WithPlant, tmp_path) -> None:
+def test_plot_maneuver_writes_the_figures_from_a_saved_file(actuated: ManeuverResult, tmp_path) -> None:
     saved = write_json(tmp_path / "maneuver.json", actuated.to_dict())
     loaded = ManeuverResult.from_dict(read_json(saved))
     assert all(name in loaded.trajectory for name in NEW_COLUMNS)

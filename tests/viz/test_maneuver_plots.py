@@ -14,10 +14,9 @@ from hypothesis import strategies as st
 from PIL import Image
 
 from hitchpark.control import NMPCSettings
-from hitchpark.model import Pose
 from hitchpark.io import read_json, write_json
 from hitchpark.maneuver import ManeuverResult, ManeuverSettings, SuccessCriteria, park
-from hitchpark.model import VehicleTrailer, hitch_point, rear_axle_pose
+from hitchpark.model import IDEAL, Pose, VehicleTrailer, hitch_point, rear_axle_pose
 from hitchpark.sim import State
 from hitchpark.viz.maneuver import animate_maneuver, body_outlines, parking_space, plot_maneuver, wheel_outlines
 
@@ -57,16 +56,16 @@ def signed_area(polygon: np.ndarray) -> float:
 
 @pytest.fixture(scope="module")
 def maneuver() -> ManeuverResult:
-    """The parallel-parking example: 3 stages, parked (about 1 s to compute)."""
-    settings = ManeuverSettings(nmpc=NMPCSettings(solver="sqp"))
-    return park(VehicleTrailer(), State(6, 3, 0, 0), settings=settings, name="parallel")
+    """The parallel-parking example, the paper's process on the ideal plant: 3 stages, parked (about 0.2 s)."""
+    settings = ManeuverSettings(nmpc=NMPCSettings(kind="paper", solver="sqp"))
+    return park(VehicleTrailer(), State(6, 3, 0, 0), settings=settings, name="parallel", plant=IDEAL)
 
 
 @pytest.fixture(scope="module")
 def failed_maneuver() -> ManeuverResult:
     """One reverse stage only, not parked: a failure ("max_stages") with a single stage."""
-    settings = ManeuverSettings(nmpc=NMPCSettings(solver="sqp"), success=SuccessCriteria(max_stages=1))
-    return park(VehicleTrailer(), State(6, 3, 0, 0), settings=settings, name="one stage")
+    settings = ManeuverSettings(nmpc=NMPCSettings(kind="paper", solver="sqp"), success=SuccessCriteria(max_stages=1))
+    return park(VehicleTrailer(), State(6, 3, 0, 0), settings=settings, name="one stage", plant=IDEAL)
 
 
 # --------------------------------------------------------------------------- geometry

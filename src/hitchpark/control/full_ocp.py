@@ -45,9 +45,9 @@ class FullParkingProblem:
         self.vehicle = vehicle
         self.settings = settings
         self.path_constraints: list[Callable[[Any, Any, int], tuple[Any, Any, Any]]] = []
-        self._Q = ca.diag(ca.DM(settings.Q))
-        self._R = ca.diag(ca.DM(settings.R))
-        self._P = ca.diag(ca.DM(settings.P))
+        self._Q = ca.diag(ca.DM(list(settings.Q or ())))
+        self._R = ca.diag(ca.DM(list(settings.R or ())))
+        self._P = ca.diag(ca.DM(list(settings.P or ())))
 
     @property
     def horizon(self) -> int:
@@ -62,6 +62,7 @@ class FullParkingProblem:
     def discrete_dynamics(self, x: Any, u: Any, dt: float | None = None) -> Any:
         """One RK4 step of ``dt`` (default: the prediction step), inputs held."""
         step = self.settings.prediction_dt if dt is None else dt
+        assert step is not None
         return rk4(lambda z: self.rhs(z, u), x, step, substeps=1)
 
     def stage_cost(self, x: Any, u: Any) -> Any:

@@ -73,6 +73,7 @@ class _RecedingHorizon:
         self.transcription = make_transcription(problem)
         s = self.settings
         equality = list(self.transcription.lbg == self.transcription.ubg)
+        assert s.solver is not None  # resolved per kind by NMPCSettings
         try:
             self.solver = make_solver(s.solver, self.transcription.nlp, equality, s.solver_options)
         except RuntimeError as exc:  # CasADi refuses an unknown or ill-typed option
@@ -142,7 +143,7 @@ class _RecedingHorizon:
         self._last_inputs = self._last_states = None
         return NMPCStep(0.0, 0.0, 0.0, self._last_steer, cost, solve_ms, False, True, status, states, inputs)
 
-    def _refuse(self, state: Sequence[float], hitch: float) -> NMPCStep | None:
+    def _refuse(self, state: Sequence[float] | np.ndarray, hitch: float) -> NMPCStep | None:
         refuse = ""
         if not all(map(math.isfinite, state)):
             refuse = "non-finite state"
@@ -220,14 +221,16 @@ class FullNMPC(_RecedingHorizon):
         settings = settings or NMPCSettings()
         if settings.kind != "full":
             raise InputError(f"FullNMPC needs nmpc.kind 'full', got {settings.kind!r}")
-        super().__init__(vehicle, FullParkingProblem(vehicle, settings))
+        problem = FullParkingProblem(vehicle, settings)
+        super().__init__(vehicle, problem)
         x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
         # One controller sample of the model: for the commands in flight and for the first move of a plan.
-        self._model_step = ca.Function("model_step", [x, u], [self.problem.discrete_dynamics(x, u, settings.dt)])
+        self._model_step = ca.Function("model_step", [x, u], [problem.discrete_dynamics(x, u, settings.dt)])
 
     def _cold_inputs(self) -> np.ndarray:
         # Accelerate in reverse, straight: from standing still a zero input sees no gain in moving.
         n = self.problem.horizon
+        assert self.settings.prediction_dt is not None
         ramp = max(
             1, round(0.5 * abs(self.settings.speed_min) / (self.vehicle.max_accel * self.settings.prediction_dt))
         )
@@ -262,7 +265,10 @@ class FullNMPC(_RecedingHorizon):
             return None
         step = self._plan(x0, free_steer=True)
         self.reset(measurement.front_steer)
-        return float(step.predicted_states[0, STEER]) if step.ok else None
+        if not step.ok:
+            return None
+        limit = self.vehicle.max_steer  # the solver's tolerance must not leak past the limit
+        return float(np.clip(step.predicted_states[0, STEER], -limit, limit))
 
     def _plan(self, x0: np.ndarray, free_steer: bool = False) -> NMPCStep:
         assert isinstance(self.problem, FullParkingProblem)

@@ -221,12 +221,13 @@ class TrailerParkingProblem:
             )
         self.path_constraints: list[PathConstraint] = []
         s = self.settings
-        self._Q = ca.diag(ca.DM(s.Q))
-        self._R = ca.diag(ca.DM(s.R))
-        self._P = ca.diag(ca.DM(s.P))
+        self._Q = ca.diag(ca.DM(list(s.Q or ())))
+        self._R = ca.diag(ca.DM(list(s.R or ())))
+        self._P = ca.diag(ca.DM(list(s.P or ())))
 
     @property
     def horizon(self) -> int:
+        assert self.settings.horizon is not None  # resolved per kind by NMPCSettings
         return self.settings.horizon
 
     def discrete_dynamics(self, x: Any, u: Any) -> Any:

@@ -55,9 +55,10 @@ class _Loop:
     states: list[np.ndarray] = field(default_factory=list)
     rows: dict[str, list[float]] = field(default_factory=lambda: {c: [] for c in _ROW_COLUMNS})
     issued: deque[Command] = field(default_factory=deque)
-    last: Command = Command(0.0, 0.0)
+    last: Command = field(default_factory=lambda: Command(0.0, 0.0))
     outcome: Outcome | None = None
     detail: str = ""
+    hand_over: bool = True  # a reverse stage's solver failure after it moved hands over to the next stage
 
     def in_flight(self) -> tuple[Command, ...]:
         """The commands issued but not yet acted on: the known delay."""
@@ -164,16 +165,22 @@ def _run_stage(loop: _Loop, index: int, stage: Stage) -> str:
         m = loop.plant.sense()
         u = stage.act(m, loop.goal, loop.in_flight())
         if not u.ok:
-            # Stopped safely. A reverse stage that got somewhere may have run into its limits (the hitch
-            # at its bound): the next stage can reposition. One that cannot even start ends the maneuver.
-            if step == 0 or stage.kind != "reverse":
+            # Stopped safely. In the full process a reverse stage that got somewhere may have run into its
+            # limits (the hitch at its bound): the next stage can reposition. One that cannot even start, or
+            # any failure in the paper's process, ends the maneuver.
+            if step == 0 or stage.kind != "reverse" or not loop.hand_over:
                 loop.outcome, loop.detail = Outcome.SOLVER, u.status
             loop.brake(index)
             return f"solver: {u.status}"
         if u.stop:
             reason = "stopped" if stage.kind == "reverse" else "repositioned"
             break
-        if not loop.step(index, m, u.command, u):
+        command = u.command
+        if stage.rate_limited:  # the commanded steer, too, moves within the vehicle's rate limit
+            step_max = loop.steer_rate * loop.plant.dt
+            last = loop.last.front_steer
+            command = Command(command.rear_speed, float(np.clip(command.front_steer, last - step_max, last + step_max)))
+        if not loop.step(index, m, command, u):
             return Outcome.JACKKNIFE.value
     else:
         loop.outcome = Outcome.STALLED
@@ -227,7 +234,9 @@ def park(
         raise InputError("controller was built for another vehicle or NMPC settings than this maneuver")
     crit = settings.success
     car = Plant(plant, vehicle, start, settings.nmpc.dt)
-    loop = _Loop(car, goal, plant.delay_steps, crit.max_time, vehicle.max_steer_rate)
+    loop = _Loop(
+        car, goal, plant.delay_steps, crit.max_time, vehicle.max_steer_rate, hand_over=settings.nmpc.kind != "paper"
+    )
     reverse, forward = make_stages(vehicle, settings, controller)
     stages: list[StageResult] = []
     stage: Stage = reverse

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from enum import Enum
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -46,7 +46,7 @@ MANEUVER_COLUMNS = (
 )
 
 
-class Outcome(str, Enum):
+class Outcome(StrEnum):
     """How a maneuver ended."""
 
     PARKED = "parked"

@@ -27,6 +27,11 @@ class Stage(Protocol):
     kind: str  # "reverse" or "forward"
 
     @property
+    def rate_limited(self) -> bool:
+        """Whether the commanded steer must move no faster than the vehicle's ``max_steer_rate``."""
+        ...
+
+    @property
     def max_steps(self) -> int:
         """A stage that has not ended after this many steps ends as stalled."""
         ...
@@ -49,6 +54,10 @@ class ReverseStage:
         self.nmpc = nmpc
 
     @property
+    def rate_limited(self) -> bool:
+        return self.nmpc.settings.kind != "paper"  # the paper's NMPC commands Eq. (45) at once
+
+    @property
     def max_steps(self) -> int:
         return self.nmpc.settings.max_steps
 
@@ -67,6 +76,10 @@ class ForwardStage:
 
     def __init__(self, pursuit: ForwardPursuit):
         self.pursuit = pursuit
+
+    @property
+    def rate_limited(self) -> bool:
+        return self.pursuit.rate_limited
 
     @property
     def max_steps(self) -> int:

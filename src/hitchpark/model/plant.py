@@ -240,8 +240,12 @@ class Plant:
         s = settings
         self._par = np.array([s.steer_time_constant, s.steer_rate_max, s.accel_max, self.dt])
         self._noise = np.array(
-            [s.position_noise_std_m, s.position_noise_std_m, math.radians(s.yaw_noise_std_deg)]
-            + [math.radians(s.hitch_noise_std_deg)]
+            [
+                s.position_noise_std_m,
+                s.position_noise_std_m,
+                math.radians(s.yaw_noise_std_deg),
+                math.radians(s.hitch_noise_std_deg),
+            ]
         )
         self._bias = np.array([0.0, 0.0, 0.0, math.radians(s.hitch_bias_deg)])
 

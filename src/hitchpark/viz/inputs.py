@@ -37,8 +37,14 @@ _LEGEND = {"fontsize": 8, "loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "b
 
 
 def steer_rate_limit(result: ManeuverResult) -> float | None:
-    """The plant's steer-rate limit [rad/s], or None if the result carries no plant or no finite limit."""
-    rate = getattr(getattr(result, "plant", None), "steer_rate_max", None)
+    """The plant's steer-rate limit [rad/s], or None if the result carries no plant or no finite limit.
+
+    The ideal plant (the paper's: commands act at once) has none, whatever its settings say.
+    """
+    plant = getattr(result, "plant", None)
+    if getattr(plant, "kind", None) == "ideal":
+        return None
+    rate = getattr(plant, "steer_rate_max", None)
     if rate is None:
         return None
     rate = float(rate)

@@ -1,0 +1,103 @@
+"""The full-model NMPC (hitchpark.control.full_ocp, FullNMPC): limits on the whole horizon, goal, delay, failure."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from hitchpark import InputError
+from hitchpark.control import FullNMPC, NMPCSettings
+from hitchpark.model import Command, Measurement, Pose, State, VehicleTrailer
+
+V = VehicleTrailer()
+SETTINGS = NMPCSettings()
+STARTS = [
+    State(10.0, 3.5, 0.0, 0.0),
+    State(11.96, -1.42, math.radians(39.26), math.radians(16.86)),
+    State(6.0, -3.5, 0.0, math.radians(-20.0)),
+    State(8.0, 2.0, math.radians(-30.0), math.radians(50.0)),
+]
+
+
+@pytest.fixture(scope="module")
+def nmpc():
+    return FullNMPC(V, SETTINGS)
+
+
+def world(goal, x, y, yaw):
+    c, s = math.cos(goal.yaw), math.sin(goal.yaw)
+    return goal.x + c * x - s * y, goal.y + s * x + c * y, yaw + goal.yaw
+
+
+@pytest.mark.parametrize("start", STARTS)
+@pytest.mark.parametrize("steer", [0.0, -0.5])
+def test_every_limit_holds_on_the_whole_horizon(nmpc, start, steer):
+    nmpc.reset()
+    u = nmpc.act(Measurement(0.0, start, steer, -0.3), Pose())
+    assert u.ok, u.status
+    xs, us = u.predicted_states, u.predicted_inputs
+    tol = 1e-6
+    assert np.all(np.abs(xs[1:, 3]) <= V.max_hitch - SETTINGS.hitch_margin + tol)
+    assert np.all(np.abs(xs[:, 4]) <= V.max_steer + tol)
+    assert np.all((xs[1:, 5] >= SETTINGS.speed_min - tol) & (xs[1:, 5] <= tol))
+    assert np.all(np.abs(us[:, 0]) <= V.max_steer_rate + tol) and np.all(np.abs(us[:, 1]) <= V.max_accel + tol)
+    # The command moves the wheels and the speed no faster than the limits allow in one sample.
+    assert abs(u.front_steer - steer) <= V.max_steer_rate * SETTINGS.dt + 1e-9
+    assert abs(u.rear_speed + 0.3) <= V.max_accel * SETTINGS.dt + 1e-9
+    assert abs(u.front_steer) <= V.max_steer and u.rear_speed <= 0.0
+
+
+def test_the_goal_is_a_parameter_of_the_step(nmpc):
+    goal = Pose(-40.0, 25.0, math.radians(120.0))
+    start = STARTS[1]
+    nmpc.reset()
+    u0 = nmpc.act(Measurement(0.0, start, 0.1, 0.0), Pose())
+    nmpc.reset()
+    moved = State(*world(goal, start.x, start.y, start.yaw), start.hitch)
+    u1 = nmpc.act(Measurement(0.0, moved, 0.1, 0.0), goal)
+    assert u0.ok and u1.ok
+    assert u1.front_steer == pytest.approx(u0.front_steer, abs=1e-7)
+    assert u1.rear_speed == pytest.approx(u0.rear_speed, abs=1e-7)
+
+
+def test_commands_in_flight_are_predicted_before_solving(nmpc):
+    m = Measurement(0.0, STARTS[0], 0.0, -0.5)
+    in_flight = (Command(-0.6, 0.05), Command(-0.7, 0.1))
+    x = nmpc._state(m, Pose(), in_flight)
+    # The steer and speed moved by the commands (each within one sample's rate), the trailer backed up.
+    assert x[4] == pytest.approx(0.1) and x[5] == pytest.approx(-0.7)
+    assert x[0] < STARTS[0].x - 0.1
+
+
+def test_initial_steer_is_within_the_limit_and_keeps_the_warm_start_clear(nmpc):
+    steer = nmpc.initial_steer(Measurement(0.0, STARTS[1], 0.0, 0.0), Pose())
+    assert steer is not None and abs(steer) <= V.max_steer + 1e-9
+    assert nmpc._last_inputs is None
+
+
+def test_solver_failure_commands_a_stop_with_the_steer_held():
+    broken = FullNMPC(V, replace(SETTINGS, solver="ipopt", fallback_solver=None, solver_options={"ipopt.max_iter": 0}))
+    u = broken.act(Measurement(0.0, STARTS[1], 0.2, -0.4), Pose())
+    assert not u.ok and u.stop and u.rear_speed == 0.0 and math.isfinite(u.front_steer)
+
+
+def test_non_finite_or_jackknifed_measurements_are_refused(nmpc):
+    for state in (State(math.nan, 0.0, 0.0, 0.0), State(1.0, 0.0, 0.0, math.radians(75.0))):
+        u = nmpc.act(Measurement(0.0, state, 0.0, 0.0), Pose())
+        assert not u.ok and u.rear_speed == 0.0
+
+
+def test_settings_per_kind_and_solver_options_in_equality():
+    full, paper = NMPCSettings(), NMPCSettings(kind="paper")
+    assert (len(full.Q), len(full.R), full.solver) == (6, 2, "fatrop")
+    assert (len(paper.Q), paper.horizon, paper.solver) == (3, 10, "sqp")
+    assert NMPCSettings(solver_options={"max_iter": 5}) != NMPCSettings()
+    with pytest.raises(InputError, match=r"nmpc\.Q must be a list of 6"):
+        NMPCSettings(Q=(1.0, 1.0, 1.0))
+    with pytest.raises(InputError, match=r"nmpc\.solver must be one of"):
+        NMPCSettings(solver="magic")
+    with pytest.raises(InputError, match="not accepted by"):
+        FullNMPC(V, NMPCSettings(solver_options={"no_such_option": 1}))
