@@ -359,7 +359,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--settings", type=Path, metavar="FILE.toml", help="maneuver settings: [nmpc], [forward], [success] tables"
     )
-    p.add_argument("--plant", type=Path, metavar="FILE.toml", help="plant settings (not supported yet)")
+    p.add_argument(
+        "--plant",
+        type=Path,
+        metavar="FILE.toml",
+        help="the simulated car: PlantSettings fields at the top level or under [plant] (default: the realistic car)",
+    )
     _add_vehicle_options(p)
     p.add_argument("--workers", type=int, metavar="K", help="worker processes (default: one per core)")
     p.add_argument(
