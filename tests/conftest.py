@@ -9,6 +9,10 @@ from hypothesis import HealthCheck, settings
 
 from hitchpark.model import VehicleTrailer
 
+# Compiling each controller's NLP to C takes seconds and the suite builds dozens of them: it runs
+# uncompiled (same expressions, same results to rounding). tests/control/test_compiled.py compiles.
+os.environ.setdefault("HITCHPARK_JIT", "0")
+
 # Modest example counts and no per-example deadline: the suite must stay fast and must
 # not fail because a machine happens to be slow.
 settings.register_profile(

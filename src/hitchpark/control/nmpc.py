@@ -75,7 +75,7 @@ class _RecedingHorizon:
         equality = list(self.transcription.lbg == self.transcription.ubg)
         assert s.solver is not None  # resolved per kind by NMPCSettings
         try:
-            self.solver = make_solver(s.solver, self.transcription.nlp, equality, s.solver_options)
+            self.solver = make_solver(s.solver, self.transcription.nlp, equality, s.solver_options, jit=bool(s.jit))
         except RuntimeError as exc:  # CasADi refuses an unknown or ill-typed option
             raise InputError(f"nmpc.solver_options are not accepted by {s.solver}: {exc}".splitlines()[0]) from None
         fallback = s.fallback_solver

@@ -44,12 +44,20 @@ NMPC_KINDS = ("full", "paper")
 #: Per kind: horizon and the diagonals of Q (stage), R (input), P (terminal); sizes are the kind's states/inputs.
 KIND_DEFAULTS: dict[str, dict[str, Any]] = {
     # Table 4.
-    "paper": {"horizon": 10, "Q": (1.0, 10.0, 10.0), "R": (0.0, 0.1), "P": (1.0, 10.0, 10.0), "solver": "sqp"},
+    "paper": {
+        "horizon": 10,
+        "Q": (1.0, 10.0, 10.0),
+        "R": (0.0, 0.1),
+        "P": (1.0, 10.0, 10.0),
+        "solver": "sqp",
+        "jit": False,
+    },
     # (x, y, yaw, hitch, steer, speed), (steer rate, acceleration); chosen by measured success (README).
     "full": {
         "horizon": 15,
         "prediction_dt": 0.3,
         "solver": "fatrop",
+        "jit": True,
         "Q": (1.0, 10.0, 10.0, 0.5, 0.01, 0.01),
         "R": (0.05, 0.05),
         "P": (10.0, 100.0, 100.0, 5.0, 0.1, 0.1),
@@ -107,6 +115,10 @@ class NMPCSettings:
         paper kind only).
     solver_options : dict
         Extra options passed to CasADi's ``nlpsol`` on top of the defaults (part of equality).
+    jit : bool or None
+        Compile the OCP's functions to C, cached on disk (:mod:`.compiled`); about twice as fast a
+        solve for the full kind. None: the kind's (full on, paper off). ``HITCHPARK_JIT=0`` or a
+        machine without a C compiler runs uncompiled, with the same results to rounding.
     """
 
     kind: str = "full"
@@ -126,6 +138,7 @@ class NMPCSettings:
     fallback_solver: str | None = "ipopt"
     transcription: str = "multiple_shooting"
     solver_options: dict[str, Any] = field(default_factory=dict, hash=False)
+    jit: bool | None = None
 
     def __post_init__(self) -> None:
         from .solvers import solver_names
@@ -167,6 +180,10 @@ class NMPCSettings:
             raise InputError(
                 f"nmpc.transcription must be 'multiple_shooting' or 'single_shooting', got {self.transcription!r}"
             )
+        if self.jit is None:
+            put("jit", defaults["jit"])
+        if not isinstance(self.jit, bool):
+            raise InputError(f"nmpc.jit must be true or false, got {self.jit!r}")
         if not isinstance(self.solver_options, dict):
             raise InputError(f"nmpc.solver_options must be a table of CasADi options, got {self.solver_options!r}")
 

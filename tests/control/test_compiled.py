@@ -1,0 +1,97 @@
+"""The compiled solver: same answers as uncompiled, cached on disk, nothing left in the working folder."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hitchpark import VehicleTrailer
+from hitchpark.control import NMPCSettings, compiled, make_nmpc
+from hitchpark.model.plant import Measurement
+from hitchpark.model.state import Pose, State
+
+
+@pytest.fixture
+def jit_cache(tmp_path, monkeypatch):
+    if compiled._compiler() is None:
+        pytest.skip("no C compiler on this machine")
+    monkeypatch.setenv("HITCHPARK_JIT", "1")
+    monkeypatch.setenv("HITCHPARK_CACHE", str(tmp_path / "cache"))
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    return tmp_path / "cache", work
+
+
+def _plans(controller, starts):
+    out = []
+    for x, y, yaw, hitch in starts:
+        controller.reset()
+        m = Measurement(0.0, State(x, y, yaw, hitch), 0.0, 0.0)
+        out.append(controller.act(m, Pose()))
+    return out
+
+
+def test_compiled_matches_uncompiled_and_is_cached(jit_cache, monkeypatch):
+    cache, work = jit_cache
+    vehicle = VehicleTrailer()
+    starts = [(8.0, 3.0, 0.5, 0.1), (12.0, -5.0, -1.0, -0.3), (5.0, 1.0, 0.2, 0.4)]
+    compiled_ctl = make_nmpc(vehicle, NMPCSettings(jit=True))
+    entries = list(cache.iterdir())
+    assert len(entries) == 1 and (entries[0] / "solver.casadi").is_file()
+    assert list(entries[0].glob("*.so")), "the shared library is kept beside the solver"
+    assert not list(entries[0].glob("*.c")) and not list(entries[0].glob("*.o"))
+    assert list(work.iterdir()) == [], "nothing written into the working folder"
+
+    plain = make_nmpc(vehicle, NMPCSettings(jit=False))
+    for a, b in zip(_plans(compiled_ctl, starts), _plans(plain, starts), strict=True):
+        assert a.ok and b.ok
+        assert a.front_steer == pytest.approx(b.front_steer, abs=1e-7)
+        assert a.rear_speed == pytest.approx(b.rear_speed, abs=1e-7)
+        np.testing.assert_allclose(a.predicted_states, b.predicted_states, atol=1e-6)
+
+    # A second controller of the same problem loads the cache instead of compiling.
+    built = []
+    real_nlpsol = compiled.ca.nlpsol
+
+    def spy(name, plugin, nlp, options):
+        built.append(bool(options.get("jit")))
+        return real_nlpsol(name, plugin, nlp, options)
+
+    monkeypatch.setattr(compiled.ca, "nlpsol", spy)
+    again = make_nmpc(vehicle, NMPCSettings(jit=True))
+    assert True not in built, "compiled again although the cache holds this solver"
+    assert again.solver is not compiled_ctl.solver
+    assert _plans(again, starts[:1])[0].front_steer == pytest.approx(_plans(plain, starts[:1])[0].front_steer, abs=1e-7)
+
+
+def test_a_broken_cache_entry_is_rebuilt(jit_cache):
+    cache, _ = jit_cache
+    vehicle = VehicleTrailer()
+    make_nmpc(vehicle, NMPCSettings(jit=True))
+    (entry,) = cache.iterdir()
+    (entry / "solver.casadi").write_text("cut short")
+    rebuilt = make_nmpc(vehicle, NMPCSettings(jit=True))
+    assert _plans(rebuilt, [(8.0, 3.0, 0.5, 0.1)])[0].ok
+    assert (entry / "solver.casadi").stat().st_size > 1000
+
+
+def test_switched_off_or_without_compiler_runs_uncompiled(tmp_path, monkeypatch):
+    monkeypatch.setenv("HITCHPARK_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("HITCHPARK_JIT", "0")
+    assert not compiled.jit_available()
+    assert make_nmpc(VehicleTrailer(), NMPCSettings(jit=True)).solver is not None
+    monkeypatch.setenv("HITCHPARK_JIT", "1")
+    monkeypatch.setenv("CC", "no-such-compiler-hitchpark")
+    assert not compiled.jit_available()
+    assert _plans(make_nmpc(VehicleTrailer(), NMPCSettings(jit=True)), [(8.0, 3.0, 0.5, 0.1)])[0].ok
+    assert not (tmp_path / "cache").exists()
+
+
+def test_jit_setting_is_checked_and_resolved_per_kind():
+    from hitchpark.checks import InputError
+
+    assert NMPCSettings().jit is True
+    assert NMPCSettings(kind="paper").jit is False
+    with pytest.raises(InputError, match=r"nmpc\.jit"):
+        NMPCSettings(jit="yes")  # type: ignore[arg-type]
