@@ -52,7 +52,7 @@ def cache_dir() -> Path:
 
 def _key(plugin: str, nlp: Mapping[str, Any], options: Mapping[str, Any], compiler: str) -> str:
     graph = ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]]).serialize()
-    described = json.dumps([plugin, options, ca.__version__, compiler, FLAGS], sort_keys=True, default=repr)
+    described = json.dumps([plugin, options, ca.CasadiMeta.version(), compiler, FLAGS], sort_keys=True, default=repr)
     return hashlib.sha256((graph + described).encode()).hexdigest()[:24]
 
 
@@ -76,7 +76,7 @@ def compiled_nlpsol(name: str, plugin: str, nlp: Mapping[str, Any], options: Map
         home.mkdir(parents=True, exist_ok=True)
     except OSError:
         return ca.nlpsol(name, plugin, dict(nlp), dict(options))
-    jit = {
+    jit: dict[str, Any] = {
         "jit": True,
         "compiler": "shell",
         "jit_name": name,
