@@ -95,3 +95,18 @@ def test_jit_setting_is_checked_and_resolved_per_kind():
     assert NMPCSettings(kind="paper").jit is False
     with pytest.raises(InputError, match=r"nmpc\.jit"):
         NMPCSettings(jit="yes")  # type: ignore[arg-type]
+
+
+def _build_and_plan(_: int) -> bool:
+    return bool(_plans(make_nmpc(VehicleTrailer(), NMPCSettings(jit=True)), [(8.0, 3.0, 0.5, 0.1)])[0].ok)
+
+
+def test_a_pool_compiles_once(jit_cache):
+    """Workers of a pool starting together: one compiles, the others wait and load (no half-built library)."""
+    import multiprocessing
+
+    cache, _ = jit_cache
+    with multiprocessing.get_context("spawn").Pool(2) as pool:
+        assert pool.map(_build_and_plan, range(2)) == [True, True]
+    (entry,) = cache.iterdir()
+    assert len(list(entry.glob("*.so"))) == 1

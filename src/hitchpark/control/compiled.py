@@ -64,46 +64,73 @@ def compiled_nlpsol(name: str, plugin: str, nlp: Mapping[str, Any], options: Map
     compiler = _compiler()
     if compiler is None or not jit_available():
         return ca.nlpsol(name, plugin, dict(nlp), dict(options))
-    key = _key(plugin, nlp, options, compiler)
-    home = cache_dir() / f"{name}-{key}"
-    path = home / "solver.casadi"
-    if path.is_file():
-        try:
-            return ca.Function.load(str(path))
-        except RuntimeError:
-            pass  # a file cut short, or its library gone: compile anew and replace it
+    home = cache_dir() / f"{name}-{_key(plugin, nlp, options, compiler)}"
     try:
         home.mkdir(parents=True, exist_ok=True)
-    except OSError:
+        lock = open(home / ".lock", "a")
+    except OSError:  # no cache to be had: the library would have nowhere to live
         return ca.nlpsol(name, plugin, dict(nlp), dict(options))
+    with lock:
+        # One process compiles, the others of a pool wait here and then load what it saved.
+        _lock(lock)
+        solver = _load(home / "solver.casadi")
+        if solver is None:
+            solver = _compile(name, plugin, nlp, options, compiler, home)
+            if solver is not None:
+                _save(solver, home / "solver.casadi")
+    return solver if solver is not None else ca.nlpsol(name, plugin, dict(nlp), dict(options))
+
+
+def _lock(handle: Any) -> None:
+    try:
+        import fcntl
+
+        fcntl.flock(handle.fileno(), fcntl.LOCK_EX)  # released when the file is closed
+    except (ImportError, OSError):
+        pass  # no advisory locks here: at worst two processes compile the same solver
+
+
+def _load(path: Path) -> Any:
+    if not path.is_file():
+        return None
+    try:
+        return ca.Function.load(str(path))
+    except RuntimeError:
+        return None  # a file cut short, or its library gone: compile anew and replace it
+
+
+def _compile(
+    name: str, plugin: str, nlp: Mapping[str, Any], options: Mapping[str, Any], compiler: str, home: Path
+) -> Any:
+    """The solver with its functions compiled into a library in ``home``; None if the compiler refused."""
     jit: dict[str, Any] = {
         "jit": True,
         "compiler": "shell",
         "jit_name": name,
-        "jit_temp_suffix": True,  # processes compiling the same key at once do not collide
+        "jit_temp_suffix": True,
         "jit_cleanup": False,  # the C source is removed here, right after compiling
         "jit_serialize": "link",  # the saved solver loads the library kept beside it
         "jit_options": {"compiler": compiler, "flags": list(FLAGS), "directory": str(home) + os.sep, "cleanup": False},
     }
     # CasADi writes the generated C into the working folder: make that the cache entry, never the user's folder.
     here = os.getcwd()
+    before = set(home.iterdir())
     try:
         os.chdir(home)
         solver = ca.nlpsol(name, plugin, dict(nlp), {**options, **jit})
-    except RuntimeError:  # the compiler refused: run uncompiled rather than not at all
-        return ca.nlpsol(name, plugin, dict(nlp), dict(options))
+    except RuntimeError:  # the compiler refused: the caller runs uncompiled rather than not at all
+        return None
     finally:
         os.chdir(here)
-    for scrap in [*home.glob("*.c"), *home.glob("*.o")]:
-        scrap.unlink(missing_ok=True)
-    _save(solver, path)
+        for scrap in set(home.iterdir()) - before:
+            if scrap.suffix in (".c", ".o"):
+                scrap.unlink(missing_ok=True)
     return solver
 
 
 def _save(solver: Any, path: Path) -> None:
     """Write atomically: a reader sees the whole file or none."""
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=".part-", dir=path.parent)
         os.close(fd)
         try:
