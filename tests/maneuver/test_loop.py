@@ -89,3 +89,11 @@ def test_maneuver_json_records_the_plant_and_round_trips(results):
     assert back.reason == r.reason
     for column in ("front_steer", "front_steer_cmd", "rear_speed_cmd", "hitch_measured"):
         np.testing.assert_allclose(back.trajectory[column], r.trajectory[column], equal_nan=True)
+
+
+def test_full_nmpc_on_the_ideal_plant_starts_each_stage_from_rest():
+    """Regression: the ideal car read its last forward speed while standing, and the next reverse
+    stage's full NMPC, starting from +1 m/s, found its problem infeasible."""
+    result = park(V, State(8.0, 2.0, 0.3, 0.1), plant=PlantSettings(kind="ideal"))
+    assert [s.kind for s in result.stages][:3] == ["reverse", "forward", "reverse"]
+    assert result.outcome is Outcome.PARKED, result.detail

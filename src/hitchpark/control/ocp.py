@@ -54,7 +54,7 @@ KIND_DEFAULTS: dict[str, dict[str, Any]] = {
     },
     # (x, y, yaw, hitch, steer, speed), (steer rate, acceleration); chosen by measured success (README).
     "full": {
-        "horizon": 15,
+        "horizon": 10,
         "prediction_dt": 0.3,
         "solver": "fatrop",
         "jit": True,
@@ -83,7 +83,7 @@ class NMPCSettings:
         where the hitch angle's response to the steer plays out. The command is the plan's first
         ``dt`` (full kind).
     horizon : int or None
-        Prediction/control horizon N [steps]; None: the kind's default (paper 10, full 20).
+        Prediction/control horizon N [steps]; None: the kind's default (10 for both).
     Q, P : tuple of floats or None
         Diagonals of the stage and terminal state weights, Eq. (49): on (x, y, yaw) for the paper's
         OCP [1/m^2, 1/m^2, 1/rad^2], on (x, y, yaw, hitch, steer, speed) for the full one. None: the kind's.

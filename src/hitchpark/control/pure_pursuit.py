@@ -131,17 +131,16 @@ def forward_done(goal: Pose, settings: PurePursuitSettings, state: np.ndarray) -
 class ForwardPursuit:
     """The forward repositioning controller: pure pursuit of the goal line (Section 5).
 
-    With ``rate_limited`` (the full process) its commands respect the vehicle's steer-rate and
-    acceleration limits and its steer cap survives ``settings.length_tolerance`` of length
-    error; it asks to start with the pursuit's steer, set while standing still. Without (the
-    paper's process) it commands the pursuit steer and the speed at once, capped with the
+    With ``rate_limited`` (the full process) the loop moves its commands within the vehicle's
+    steer-rate and acceleration limits, its steer cap survives ``settings.length_tolerance`` of
+    length error, and it asks to start with the pursuit's steer, set while standing still.
+    Without (the paper's process) the pursuit steer and the speed act at once, capped with the
     nominal lengths.
     """
 
     def __init__(self, vehicle: VehicleTrailer, settings: PurePursuitSettings, dt: float, rate_limited: bool):
         self.vehicle, self.settings, self.dt, self.rate_limited = vehicle, settings, dt, rate_limited
         self.limit = forward_steer_limit(vehicle, length_tolerance=settings.length_tolerance if rate_limited else 0.0)
-        self._last = Command(0.0, 0.0)
 
     @property
     def max_steps(self) -> int:
@@ -149,7 +148,7 @@ class ForwardPursuit:
         return math.ceil(self.settings.max_distance / (self.settings.speed * self.dt) - 1e-9)
 
     def reset(self, front_steer: float = 0.0) -> None:
-        self._last = Command(0.0, float(front_steer))
+        """Nothing to forget: each command follows from the measurement alone."""
 
     def initial_steer(self, measurement: Measurement, goal: Pose) -> float | None:
         if not self.rate_limited:
@@ -162,12 +161,6 @@ class ForwardPursuit:
         done = forward_done(goal, self.settings, state)
         steer = pure_pursuit_steer(v, goal, self.settings, state, self.limit)
         speed = 0.0 if done else self.settings.speed
-        if self.rate_limited:
-            step_steer, step_speed = v.max_steer_rate * self.dt, v.max_accel * self.dt
-            steer = float(np.clip(steer, self._last.front_steer - step_steer, self._last.front_steer + step_steer))
-            speed = float(np.clip(speed, self._last.rear_speed - step_speed, self._last.rear_speed + step_speed))
-        if not done:
-            self._last = Command(speed, steer)
         hitch = state[3]
         return NMPCStep(
             float(trailer_speed_from_rear_speed(v, hitch, speed, steer)),  # Eq. (18)

@@ -51,7 +51,8 @@ class _Loop:
     goal: Pose
     delay: int
     max_time: float
-    steer_rate: float  # the controller's steer-rate limit, for setting the wheels at standstill [rad/s]
+    steer_rate: float  # the controller's steer-rate limit [rad/s]
+    accel: float  # the controller's acceleration limit [m/s^2]
     states: list[np.ndarray] = field(default_factory=list)
     rows: dict[str, list[float]] = field(default_factory=lambda: {c: [] for c in _ROW_COLUMNS})
     issued: deque[Command] = field(default_factory=deque)
@@ -63,6 +64,19 @@ class _Loop:
     def in_flight(self) -> tuple[Command, ...]:
         """The commands issued but not yet acted on: the known delay."""
         return tuple(self.issued)[len(self.issued) - self.delay :] if self.delay else ()
+
+    def limited(self, command: Command) -> Command:
+        """The command moved from the last one within the controller's steer-rate and acceleration limits.
+
+        The one place these limits are enforced on what a stage asks: the full NMPC's plan already
+        respects them (this is then a guard against solver tolerance), the forward pursuit relies on it.
+        """
+        steer_step, speed_step = self.steer_rate * self.plant.dt, self.accel * self.plant.dt
+        last = self.last
+        return Command(
+            float(np.clip(command.rear_speed, last.rear_speed - speed_step, last.rear_speed + speed_step)),
+            float(np.clip(command.front_steer, last.front_steer - steer_step, last.front_steer + steer_step)),
+        )
 
     def step(self, stage: int, measurement: Measurement, command: Command, why: NMPCStep | None = None) -> bool:
         """Apply one command and record the row; False (and the outcome) on a jackknife."""
@@ -89,7 +103,7 @@ class _Loop:
         row["front_steer_cmd"].append(command.front_steer)
         row["hitch_measured"].append(measurement.state.hitch)
         row["stage"].append(stage)
-        if why is not None:  # the controller's own view: U_0, or Eqs. (18), (56) of its command
+        if why is not None and why.command == command:  # the controller's own view: U_0, or Eqs. (18), (56)
             row["trailer_speed"].append(why.trailer_speed)
             row["virtual_steer"].append(why.virtual_steer)
         else:
@@ -175,11 +189,7 @@ def _run_stage(loop: _Loop, index: int, stage: Stage) -> str:
         if u.stop:
             reason = "stopped" if stage.kind == "reverse" else "repositioned"
             break
-        command = u.command
-        if stage.rate_limited:  # the commanded steer, too, moves within the vehicle's rate limit
-            step_max = loop.steer_rate * loop.plant.dt
-            last = loop.last.front_steer
-            command = Command(command.rear_speed, float(np.clip(command.front_steer, last - step_max, last + step_max)))
+        command = loop.limited(u.command) if stage.rate_limited else u.command
         if not loop.step(index, m, command, u):
             return Outcome.JACKKNIFE.value
     else:
@@ -235,7 +245,13 @@ def park(
     crit = settings.success
     car = Plant(plant, vehicle, start, settings.nmpc.dt)
     loop = _Loop(
-        car, goal, plant.delay_steps, crit.max_time, vehicle.max_steer_rate, hand_over=settings.nmpc.kind != "paper"
+        car,
+        goal,
+        plant.delay_steps,
+        crit.max_time,
+        vehicle.max_steer_rate,
+        vehicle.max_accel,
+        hand_over=settings.nmpc.kind != "paper",
     )
     reverse, forward = make_stages(vehicle, settings, controller)
     stages: list[StageResult] = []

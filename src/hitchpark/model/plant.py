@@ -264,10 +264,18 @@ class Plant:
         return tuple(self._queue)
 
     def stopped(self) -> bool:
-        """At standstill with only stops in flight (the ideal car stops the moment a stop acts)."""
+        """At standstill with only stops in flight.
+
+        The ideal car has no speed of its own: it moves at its command and stops the moment it is
+        asked to, so once no motion is in flight it is at rest, and its actual speed reads zero
+        (a controller that senses the speed must not see the last move's speed while standing).
+        """
         if any(c.rear_speed != 0.0 for c in self._queue):
             return False
-        return self.settings.kind == "ideal" or self.rear_speed == 0.0
+        if self.settings.kind == "ideal":
+            self.rear_speed = 0.0
+            return True
+        return self.rear_speed == 0.0
 
     def apply(self, command: Command) -> Command | None:
         """Issue ``command`` and advance one sample.
