@@ -13,7 +13,7 @@ from typing import Any, NoReturn
 
 from .checks import InputError
 from .model.plant import PlantSettings, load_plant
-from .model.state import Pose, State
+from .model.state import Pose, State, check_pose
 from .model.vehicle import VehicleTrailer, load_vehicle, vehicle_from_dict
 
 _VEHICLE_OVERRIDES = ("wheelbase", "hitch_offset", "trailer_length")
@@ -28,8 +28,9 @@ class UsageError(InputError):
 class _Parser(argparse.ArgumentParser):
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
-        # Let "--start -5,2,0,0" pass a negative comma list as a value, not an option.
-        self._negative_number_matcher = re.compile(r"^-\.?\d[\d.,eE+-]*$")
+        # Let "--start -5,2,0,0" pass a negative comma list as a value, not an option; "-inf" and "-nan"
+        # too, so that the value's own check refuses them with its message.
+        self._negative_number_matcher = re.compile(r"^-(\.?\d[\d.,eE+-]*|inf(inity)?|nan)(,.*)?$", re.IGNORECASE)
 
     def error(self, message: str) -> NoReturn:
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see --help)\n")
@@ -52,6 +53,7 @@ def _floats(text: str, count: int, what: str, names: str) -> list[float]:
 def parse_start(text: str) -> State:
     """``X,Y,YAW_DEG,HITCH_DEG`` -> :class:`State` (trailer-axle pose and hitch angle)."""
     x, y, yaw, hitch = _floats(text, 4, "--start", "X,Y,YAW_DEG,HITCH_DEG")
+    check_pose("start", x, y, math.radians(yaw))  # named as the user knows it, before State checks it again
     return State(x, y, math.radians(yaw), math.radians(hitch))
 
 

@@ -15,19 +15,16 @@ from typing import Any
 
 import numpy as np
 
-from .checks import InputError, check_number, check_range
+from .checks import MAX_SPEED, InputError, check_mapping, check_number, check_range, check_values, shown
 from .model.integrate import step_full
 from .model.kinematics import rear_axle_pose
 from .model.state import State, check_state
-from .model.vehicle import VehicleTrailer
+from .model.vehicle import VehicleTrailer, check_vehicle
 
 __all__ = ["BASE_COLUMNS", "STATE_COLUMNS", "SimulationResult", "State", "Trajectory", "check_state", "simulate"]
 
 #: Longest open-loop run :func:`simulate` accepts, in samples (a day at dt = 0.1 s).
 MAX_SIM_STEPS = 864_000
-
-#: Largest |rear_speed| :func:`simulate` accepts [m/s].
-MAX_SPEED = 30.0
 
 #: The columns that follow from the state alone (:func:`state_columns`).
 STATE_COLUMNS = ("x_trailer", "y_trailer", "yaw_trailer", "yaw_vehicle", "hitch", "x_rear", "y_rear")
@@ -52,6 +49,9 @@ class Trajectory:
 
     def __init__(self, columns: Mapping[str, Any]):
         self.columns = {k: np.asarray(v, dtype=float) for k, v in columns.items()}
+        shapes = {v.shape for v in self.columns.values()}
+        if any(len(shape) != 1 for shape in shapes):
+            raise InputError(f"trajectory columns must be 1-D, got shapes {sorted(shapes)}")
         lengths = {len(v) for v in self.columns.values()}
         if len(lengths) > 1:
             raise InputError(f"trajectory columns differ in length: {sorted(lengths)}")
@@ -78,8 +78,24 @@ class Trajectory:
         return {k: [None if not math.isfinite(x) else float(x) for x in v] for k, v in self.columns.items()}
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Iterable[float | None]]) -> Trajectory:
-        return cls({k: [np.nan if x is None else x for x in v] for k, v in data.items()})
+    def from_dict(cls, data: Any, finite: Iterable[str] = ()) -> Trajectory:
+        """Columns from JSON lists of numbers, ``None`` for a missing value except in the ``finite`` columns.
+
+        A column must be a flat list of numbers (not strings, not nested lists); the time column
+        ``t``, where present, must not decrease.
+        """
+        table = check_mapping("trajectory", data)
+        must = set(finite)
+        columns = {}
+        for name, values in table.items():
+            if not isinstance(values, list | tuple | np.ndarray):
+                raise InputError(f"trajectory column {name!r} must be a list of numbers, got {shown(values)}")
+            if name not in must:
+                values = [np.nan if v is None else v for v in values]
+            columns[name] = check_values(f"trajectory column {name!r}", values, ndim=1, allow_nan=name not in must)
+        if "t" in columns and np.any(np.diff(columns["t"]) < 0):
+            raise InputError("trajectory column 't' must not decrease")
+        return cls(columns)
 
     def to_csv(self, path: str | Path) -> None:
         header = ",".join(self.names)
@@ -133,6 +149,7 @@ def simulate(
     multiple of ``dt``). The run stops early, with reason ``"jackknife"``, before a
     step that would take the hitch angle past ``vehicle.max_hitch``.
     """
+    check_vehicle(vehicle)
     check_state(vehicle, start)
     check_range("speed", rear_speed, -MAX_SPEED, MAX_SPEED, unit="m/s (a kinematic model holds at low speed)")
     check_number("steer", front_steer)

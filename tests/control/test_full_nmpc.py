@@ -85,9 +85,10 @@ def test_solver_failure_commands_a_stop_with_the_steer_held():
 
 
 def test_non_finite_or_jackknifed_measurements_are_refused(nmpc):
-    for state in (State(math.nan, 0.0, 0.0, 0.0), State(1.0, 0.0, 0.0, math.radians(75.0))):
-        u = nmpc.act(Measurement(0.0, state, 0.0, 0.0), Pose())
-        assert not u.ok and u.rear_speed == 0.0
+    with pytest.raises(InputError, match="x must be finite"):  # a non-finite state cannot even be made
+        State(math.nan, 0.0, 0.0, 0.0)
+    u = nmpc.act(Measurement(0.0, State(1.0, 0.0, 0.0, math.radians(75.0)), 0.0, 0.0), Pose())
+    assert not u.ok and u.rear_speed == 0.0  # past the jackknife limit: a stop, not a plan
 
 
 def test_settings_per_kind_and_solver_options_in_equality():

@@ -240,7 +240,7 @@ def test_bad_inputs_are_rejected():
         park(VehicleTrailer(), State(10.0, 3.5, 0.0, math.radians(75.0)))
     with pytest.raises(ValueError, match="hitch_offset"):
         park(VehicleTrailer(hitch_offset=0.0), State(10.0, 3.5, 0.0, 0.0))
-    with pytest.raises(ValueError, match="start x"):
+    with pytest.raises(ValueError, match="x must be finite"):
         park(VehicleTrailer(), State(math.nan, 3.5, 0.0, 0.0))
 
 
@@ -481,7 +481,7 @@ def _saved(results) -> dict:
     ("spoil", "problem"),
     [
         (lambda d: d["stages"][0].update(first_row=10**9), "rows"),
-        (lambda d: d["stages"][1].update(last_row=-3), "rows"),
+        (lambda d: d["stages"][1].update(last_row=-3), "last_row"),
         (lambda d: d["stages"][0].update(kind="sideways"), "kind"),
         (lambda d: d["stages"].pop(), "stages end"),
         (lambda d: d["trajectory"].pop("hitch"), "hitch"),

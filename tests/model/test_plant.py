@@ -126,7 +126,7 @@ def test_load_plant_file_and_table(tmp_path):
         ("hitch_noise_std_deg = nan", "plant.hitch_noise_std_deg"),
         ("wheel = 3", "unknown key plant.wheel"),
         ("[vehicle]\nwheelbase = -1", "wheelbase"),
-        ("[vehicle]\nlength = 1", "unknown vehicle field"),
+        ("[vehicle]\nlength = 1", "unknown key plant.vehicle.length"),
     ],
 )
 def test_bad_plant_files_are_refused_on_one_line(tmp_path, text, match):

@@ -15,7 +15,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -23,11 +23,9 @@ import numpy as np
 
 from ..checks import MAX_COORDINATE, MAX_YAW, InputError, check_int
 from ..control.nmpc import FullNMPC, TrailerNMPC, make_nmpc
-from ..control.ocp import NMPCSettings
-from ..control.pure_pursuit import PurePursuitSettings
 from ..io import read_toml
 from ..maneuver.process import park
-from ..maneuver.result import ManeuverSettings, SuccessCriteria
+from ..maneuver.result import ManeuverSettings
 from ..model.plant import PlantSettings, load_plant
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
@@ -184,25 +182,9 @@ class SweepConfig:
         return draw_starts(self.seed, self.n, self.region)
 
 
-_SETTINGS_TABLES: dict[str, type] = {"nmpc": NMPCSettings, "forward": PurePursuitSettings, "success": SuccessCriteria}
-
-
 def settings_from_dict(data: Mapping[str, Any]) -> ManeuverSettings:
     """:class:`ManeuverSettings` from the tables ``nmpc``, ``forward`` and ``success`` (each optional)."""
-    unknown = sorted(set(data) - set(_SETTINGS_TABLES))
-    if unknown:
-        raise InputError(f"unknown table [{unknown[0]}]; allowed: {', '.join(_SETTINGS_TABLES)}")
-    parts: dict[str, Any] = {}
-    for table, cls in _SETTINGS_TABLES.items():
-        values = data.get(table, {})
-        if not isinstance(values, Mapping):
-            raise InputError(f"[{table}] must be a table, got {values!r}")
-        allowed = tuple(f.name for f in fields(cls))
-        bad = sorted(set(values) - set(allowed))
-        if bad:
-            raise InputError(f"unknown key {table}.{bad[0]}; allowed: {', '.join(allowed)}")
-        parts[table] = cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})
-    return ManeuverSettings(**parts)
+    return ManeuverSettings.from_dict(data)
 
 
 def load_settings(path: str | Path) -> ManeuverSettings:

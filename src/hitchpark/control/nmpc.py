@@ -18,15 +18,15 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from ..checks import InputError
+from ..checks import InputError, check_instance
 from ..model.inverse import front_steer_from_virtual, rear_speed_from_trailer_speed, virtual_steer_from_front
 from ..model.kinematics import trailer_speed_from_rear_speed
 from ..model.plant import Command, Measurement
-from ..model.state import Pose, to_goal_frame
-from ..model.vehicle import VehicleTrailer
+from ..model.state import Pose, State, check_goal, to_goal_frame
+from ..model.vehicle import VehicleTrailer, check_vehicle
 from .full_ocp import SPEED, STEER, FullParkingProblem
 from .ocp import OCP, NMPCSettings, TrailerParkingProblem
-from .solvers import make_solver
+from .solvers import casadi_reason, make_solver
 from .transcription import make_transcription
 
 __all__ = ["FullNMPC", "NMPCStep", "TrailerNMPC", "make_nmpc"]
@@ -60,6 +60,16 @@ class NMPCStep:
         return Command(self.rear_speed, self.front_steer)
 
 
+def _settings(vehicle: Any, settings: Any, kind: str) -> NMPCSettings:
+    """Check a controller's arguments; ``settings`` None: the ``kind``'s defaults."""
+    check_vehicle(vehicle)
+    settings = NMPCSettings(kind=kind) if settings is None else settings
+    check_instance("settings", settings, NMPCSettings, "hitchpark.control.NMPCSettings(...)")
+    if settings.kind != kind:
+        raise InputError(f"this controller needs nmpc.kind {kind!r}, got {settings.kind!r}")
+    return settings
+
+
 class _RecedingHorizon:
     """The solve machinery both NMPCs share: transcription, solver cascade, warm start."""
 
@@ -77,7 +87,7 @@ class _RecedingHorizon:
         try:
             self.solver = make_solver(s.solver, self.transcription.nlp, equality, s.solver_options, jit=bool(s.jit))
         except RuntimeError as exc:  # CasADi refuses an unknown or ill-typed option
-            raise InputError(f"nmpc.solver_options are not accepted by {s.solver}: {exc}".splitlines()[0]) from None
+            raise InputError(f"nmpc.solver_options are not accepted by {s.solver}: {casadi_reason(exc)}") from None
         fallback = s.fallback_solver
         self.fallback = (
             make_solver(fallback, self.transcription.nlp, equality) if fallback and fallback != s.solver else None
@@ -167,7 +177,8 @@ class TrailerNMPC(_RecedingHorizon):
     """
 
     def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings | None = None):
-        super().__init__(vehicle, TrailerParkingProblem(vehicle, settings or NMPCSettings(kind="paper")))
+        settings = _settings(vehicle, settings, "paper")
+        super().__init__(vehicle, TrailerParkingProblem(vehicle, settings))
 
     def _cold_inputs(self) -> np.ndarray:
         # Reverse straight at half the speed bound; u = 0 would be a stationary point of the speed.
@@ -182,10 +193,12 @@ class TrailerNMPC(_RecedingHorizon):
         self, x_trailer: float, y_trailer: float, yaw_trailer: float, hitch: float, goal: Pose | None = None
     ) -> NMPCStep:
         """Solve the OCP from the current configuration and return U_0 and the vehicle command."""
+        State(x_trailer, y_trailer, yaw_trailer, hitch)  # finite and in range, or an InputError
+        goal = check_goal(goal)
         refused = self._refuse((x_trailer, y_trailer, yaw_trailer, hitch), hitch)
         if refused is not None:
             return refused
-        x0 = np.array(to_goal_frame(goal or Pose(), x_trailer, y_trailer, yaw_trailer), dtype=float)
+        x0 = np.array(to_goal_frame(goal, x_trailer, y_trailer, yaw_trailer), dtype=float)
         assert isinstance(self.problem, TrailerParkingProblem)
         u_min, u_max = self.problem.input_bounds(hitch)  # Eqs. (56)-(57) at the current hitch angle
         ok, status, states, inputs, cost, solve_ms = self._solve_cascade(
@@ -218,9 +231,7 @@ class FullNMPC(_RecedingHorizon):
     """
 
     def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings | None = None):
-        settings = settings or NMPCSettings()
-        if settings.kind != "full":
-            raise InputError(f"FullNMPC needs nmpc.kind 'full', got {settings.kind!r}")
+        settings = _settings(vehicle, settings, "full")
         problem = FullParkingProblem(vehicle, settings)
         super().__init__(vehicle, problem)
         x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
@@ -252,7 +263,8 @@ class FullNMPC(_RecedingHorizon):
         return x
 
     def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command] = ()) -> NMPCStep:
-        x0 = self._state(measurement, goal, in_flight)
+        check_instance("measurement", measurement, Measurement)
+        x0 = self._state(measurement, check_goal(goal), in_flight)
         refused = self._refuse(x0, x0[3])
         if refused is not None:
             return refused

@@ -12,14 +12,14 @@ position, X along the goal trailer heading, so the parked state is zero.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import casadi as ca
 import numpy as np
 
-from ..checks import InputError, check_int, check_range
+from ..checks import InputError, check_choice, check_flag, check_int, check_mapping, check_range, shown
 from ..model.inverse import virtual_steer_bounds
 from ..model.kinematics import TRAILER_INPUT, TRAILER_STATE, trailer_rhs
 from ..model.vehicle import VehicleTrailer
@@ -35,7 +35,31 @@ def _diag(name: str, values: Sequence[float], size: int, positive: bool) -> tupl
     if items is None or len(items) != size:
         raise InputError(f"{name} must be a list of {size} numbers (the diagonal), got {values!r}")
     low_open = positive  # Q, P > 0 as Eq. (49) asks; R may have zeros (Table 4: R = diag(0, 0.1))
-    return tuple(check_range(f"{name}[{i}]", v, 0.0, low_open=low_open) for i, v in enumerate(items))
+    return tuple(check_range(f"{name}[{i}]", v, 0.0, MAX_WEIGHT, low_open=low_open) for i, v in enumerate(items))
+
+
+#: Largest weight accepted in Q, R, P: far past any useful ratio, short of ruining the NLP's scaling.
+MAX_WEIGHT = 1e8
+
+
+def _solver_options(value: Any, name: str = "nmpc.solver_options") -> dict[str, Any]:
+    """CasADi ``nlpsol`` options: a table of names to numbers, strings, true/false, lists of those, or tables.
+
+    Whether the solver knows them is for CasADi to say when the controller is built.
+    """
+    table = dict(check_mapping(name, value))
+    for key, item in table.items():
+        if isinstance(item, Mapping):
+            table[key] = _solver_options(item, f"{name}.{key}")
+            continue
+        for leaf in item if isinstance(item, list | tuple) else [item]:
+            if isinstance(leaf, float) and not math.isfinite(leaf):
+                raise InputError(f"{name}.{key} must be finite, got {leaf}")
+            if not isinstance(leaf, bool | int | float | str):
+                raise InputError(
+                    f"{name}.{key} must be a number, a string, true/false or a list of those, got {shown(item)}"
+                )
+    return table
 
 
 #: Kinds of NMPC: the paper's trailer-only OCP (Eqs. 47-57) and the full-model OCP (:mod:`.full_ocp`).
@@ -146,8 +170,7 @@ class NMPCSettings:
         def put(name: str, value: Any) -> None:
             object.__setattr__(self, name, value)
 
-        if self.kind not in NMPC_KINDS:
-            raise InputError(f"nmpc.kind must be one of {', '.join(NMPC_KINDS)}, got {self.kind!r}")
+        check_choice("nmpc.kind", self.kind, NMPC_KINDS)
         defaults = KIND_DEFAULTS[self.kind]
         n_x, n_u = len(defaults["Q"]), len(defaults["R"])
         put("dt", check_range("nmpc.dt", self.dt, 0.0, 1.0, low_open=True, unit="s"))
@@ -180,12 +203,8 @@ class NMPCSettings:
             raise InputError(
                 f"nmpc.transcription must be 'multiple_shooting' or 'single_shooting', got {self.transcription!r}"
             )
-        if self.jit is None:
-            put("jit", defaults["jit"])
-        if not isinstance(self.jit, bool):
-            raise InputError(f"nmpc.jit must be true or false, got {self.jit!r}")
-        if not isinstance(self.solver_options, dict):
-            raise InputError(f"nmpc.solver_options must be a table of CasADi options, got {self.solver_options!r}")
+        put("jit", check_flag("nmpc.jit", defaults["jit"] if self.jit is None else self.jit))
+        put("solver_options", _solver_options(self.solver_options))
 
 
 class OCP(Protocol):

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import check_range
+from ..checks import MAX_SPEED, Real, check_fields, checked
 from ..model.inverse import virtual_steer_from_front
 from ..model.kinematics import rear_axle_pose, trailer_speed_from_rear_speed
 from ..model.plant import Command, Measurement
@@ -56,26 +56,16 @@ class PurePursuitSettings:
         paper's process caps with the nominal lengths.
     """
 
-    lookahead: float = 3.0
-    speed: float = 1.0
-    hitch_threshold: float = math.radians(1.0)
-    distance_threshold: float = 8.0
-    orientation_threshold: float = math.radians(1.0)
-    max_distance: float = 100.0
-    length_tolerance: float = 0.2
+    lookahead: float = checked(3.0, Real(0.0, 50.0, low_open=True, unit="m"))
+    speed: float = checked(1.0, Real(0.0, MAX_SPEED, low_open=True, unit="m/s"))
+    hitch_threshold: float = checked(math.radians(1.0), Real(0.0, math.pi / 2, low_open=True, unit="rad"))
+    distance_threshold: float = checked(8.0, Real(0.0, 1000.0, low_open=True, unit="m"))
+    orientation_threshold: float = checked(math.radians(1.0), Real(0.0, math.pi, low_open=True, unit="rad"))
+    max_distance: float = checked(100.0, Real(0.0, 10_000.0, low_open=True, unit="m"))
+    length_tolerance: float = checked(0.2, Real(0.0, 1.0, high_open=True))
 
     def __post_init__(self) -> None:
-        tol = check_range("forward.length_tolerance", self.length_tolerance, 0.0, 1.0, high_open=True)
-        object.__setattr__(self, "length_tolerance", tol)
-        for name in (
-            "lookahead",
-            "speed",
-            "hitch_threshold",
-            "distance_threshold",
-            "orientation_threshold",
-            "max_distance",
-        ):
-            object.__setattr__(self, name, check_range(f"forward.{name}", getattr(self, name), 0.0, low_open=True))
+        check_fields(self, "forward.")
 
 
 def forward_steer_limit(

@@ -6,14 +6,19 @@ controller builds them here, never by checking names itself.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+import os
+import re
+import sys
+import tempfile
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 import casadi as ca
 
 from .compiled import compiled_nlpsol
 
-__all__ = ["SOLVERS", "make_solver", "register_solver", "solver_names"]
+__all__ = ["SOLVERS", "casadi_reason", "make_solver", "quiet_stderr", "register_solver", "solver_names"]
 
 #: ``name -> factory(equality) -> (CasADi plugin, default options)``; ``equality`` flags the constraints that
 #: are equalities (structure-exploiting solvers need it). The user's ``solver_options`` go on top.
@@ -73,6 +78,53 @@ def _sqp(equality: Sequence[bool]) -> tuple[str, dict[str, Any]]:
     }
 
 
+_CASADI_SOURCE = re.compile(r"^\.\.\./casadi/\S+:\d+:\s*")
+
+
+def casadi_reason(exc: BaseException) -> str:
+    """The root cause of a CasADi error on one line: its last located message, without the source location."""
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    located = [i for i, line in enumerate(lines) if _CASADI_SOURCE.match(line)]
+    if not located:
+        return lines[-1] if lines else type(exc).__name__
+    i = located[-1]
+    text = _CASADI_SOURCE.sub("", lines[i])
+    if text.endswith(":") and i + 1 < len(lines):  # 'Assertion "..." failed:' and the reason on the next line
+        text = lines[i + 1] if text.startswith("Assertion") else f"{text} {lines[i + 1]}"
+    return re.sub(r"\s*\[\.\.\./casadi/\S+\]$", "", text)
+
+
+@contextmanager
+def quiet_stderr() -> Iterator[list[str]]:
+    """Hold back what C code writes to the standard error (CasADi's warnings) while the block runs.
+
+    Yields a list that receives the held text. If the block raises, the text is dropped: the
+    exception says what went wrong, on one line. Otherwise it is written out after the block.
+    """
+    held: list[str] = []
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):  # no real standard error (an embedding host): nothing to hold back
+        yield held
+        return
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        failed = False
+        try:
+            yield held
+        except BaseException:
+            failed = True
+            raise
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            held.append(tmp.read().decode("utf-8", "replace"))
+            if not failed and held[0]:
+                sys.stderr.write(held[0])
+
+
 def make_solver(
     name: str,
     nlp: Mapping[str, Any],
@@ -86,9 +138,10 @@ def make_solver(
     """
     plugin, opts = SOLVERS[name](equality)
     opts.update(options or {})
-    if jit:
-        return compiled_nlpsol(f"nmpc_{name}", plugin, nlp, opts)
-    return ca.nlpsol(f"nmpc_{name}", plugin, dict(nlp), opts)
+    with quiet_stderr():
+        if jit:
+            return compiled_nlpsol(f"nmpc_{name}", plugin, nlp, opts)
+        return ca.nlpsol(f"nmpc_{name}", plugin, dict(nlp), opts)
 
 
 @register_solver("fatrop")

@@ -16,13 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import InputError
+from ..checks import InputError, check_instance, check_text
 from ..control.nmpc import FullNMPC, NMPCStep, TrailerNMPC
 from ..model.inverse import virtual_steer_from_front
 from ..model.kinematics import trailer_speed_from_rear_speed
 from ..model.plant import Command, Measurement, Plant, PlantSettings
-from ..model.state import Pose, State, check_state
-from ..model.vehicle import VehicleTrailer
+from ..model.state import Pose, State, check_goal, check_state
+from ..model.vehicle import VehicleTrailer, check_vehicle
 from ..sim import STATE_COLUMNS, Trajectory, state_columns
 from .result import (
     MANEUVER_COLUMNS,
@@ -233,13 +233,16 @@ def park(
     ManeuverResult
         ``success``, ``reason`` (an :class:`Outcome` value) and ``detail``, the stages and the trajectory.
     """
-    vehicle.require_hitch_offset()
+    check_vehicle(vehicle).require_hitch_offset()
     check_state(vehicle, start)
-    goal = goal or Pose()
-    if not isinstance(goal, Pose):
-        raise InputError(f"goal must be a hitchpark.Pose, got {goal!r}")
-    settings = settings or ManeuverSettings()
-    plant = plant or PlantSettings()
+    goal = check_goal(goal)
+    settings = ManeuverSettings() if settings is None else settings
+    check_instance("settings", settings, ManeuverSettings, "hitchpark.maneuver.ManeuverSettings(...)")
+    plant = PlantSettings() if plant is None else plant
+    check_instance("plant", plant, PlantSettings, "hitchpark.PlantSettings(...)")
+    check_text("name", name, max_length=200)
+    if controller is not None:
+        check_instance("controller", controller, (TrailerNMPC, FullNMPC))
     if controller is not None and (controller.vehicle, controller.settings) != (vehicle, settings.nmpc):
         raise InputError("controller was built for another vehicle or NMPC settings than this maneuver")
     crit = settings.success

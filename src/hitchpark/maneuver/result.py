@@ -13,11 +13,26 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import InputError, check_int, check_range
+from ..checks import (
+    Choice,
+    InputError,
+    Integer,
+    Real,
+    Text,
+    build,
+    check_choice,
+    check_fields,
+    check_flag,
+    check_keys,
+    check_mapping,
+    check_text,
+    checked,
+    shown,
+)
 from ..control.ocp import NMPCSettings
 from ..control.pure_pursuit import PurePursuitSettings
 from ..model.plant import PlantSettings
-from ..model.state import Pose, State, to_goal_frame
+from ..model.state import Pose, State, check_state, to_goal_frame
 from ..model.vehicle import VehicleTrailer, vehicle_from_dict
 from ..sim import BASE_COLUMNS, Trajectory
 
@@ -46,6 +61,17 @@ MANEUVER_COLUMNS = (
 )
 
 
+#: Columns that are numbers on every row; the others are missing (None in JSON) where they do not apply
+#: (no solve on a forward step, say).
+FINITE_COLUMNS = (*BASE_COLUMNS, "front_steer_cmd", "rear_speed_cmd", "hitch_measured", "stage")
+
+#: Keys of ``maneuver.json``: those read back, those written for readers only (derived from the rest).
+_SAVED_KEYS = ("name", "vehicle", "start", "goal", "plant", "success", "reason", "detail", "stages", "settings",
+               "trajectory")
+_DERIVED_KEYS = ("duration_s", "max_abs_front_steer_deg", "max_abs_hitch_deg")
+_REQUIRED_KEYS = ("vehicle", "start", "goal", "success", "reason", "stages", "trajectory")
+
+
 class Outcome(StrEnum):
     """How a maneuver ended."""
 
@@ -58,6 +84,10 @@ class Outcome(StrEnum):
     LIMITS_EXCEEDED = "limits exceeded"
 
 
+#: Longest maneuver time accepted [s]: a day; a parking maneuver takes a minute.
+MAX_MANEUVER_TIME = 86_400.0
+
+
 @dataclass(frozen=True)
 class SuccessCriteria:
     """Success, defined once: final errors within these, limits never exceeded, within stages and time.
@@ -66,16 +96,14 @@ class SuccessCriteria:
     hitch [rad] (final |hitch|), max_stages, max_time [s] of maneuver time.
     """
 
-    distance: float = 0.05
-    orientation: float = math.radians(0.5)
-    hitch: float = math.radians(3.0)
-    max_stages: int = 7
-    max_time: float = 300.0
+    distance: float = checked(0.05, Real(0.0, 100.0, low_open=True, unit="m"))
+    orientation: float = checked(math.radians(0.5), Real(0.0, math.pi, low_open=True, unit="rad"))
+    hitch: float = checked(math.radians(3.0), Real(0.0, math.pi / 2, low_open=True, unit="rad"))
+    max_stages: int = checked(7, Integer(1, 1000))
+    max_time: float = checked(300.0, Real(0.0, MAX_MANEUVER_TIME, low_open=True, unit="s (a day)"))
 
     def __post_init__(self) -> None:
-        for name in ("distance", "orientation", "hitch", "max_time"):
-            object.__setattr__(self, name, check_range(f"success.{name}", getattr(self, name), 0.0, low_open=True))
-        object.__setattr__(self, "max_stages", check_int("success.max_stages", self.max_stages, 1, 1000))
+        check_fields(self, "success.")
 
 
 @dataclass(frozen=True)
@@ -90,27 +118,43 @@ class ManeuverSettings:
         return {"nmpc": asdict(self.nmpc), "forward": asdict(self.forward), "success": asdict(self.success)}
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> ManeuverSettings:
-        nmpc: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in data.get("nmpc", {}).items()}
+    def from_dict(cls, data: Any) -> ManeuverSettings:
+        """From the tables ``nmpc``, ``forward`` and ``success`` (each optional; unknown keys refused)."""
+        tables = check_keys("settings", data, _SETTINGS_TABLES, "table [{}]")
+        nmpc = tables.get("nmpc", {})
+        if "solver_options" in check_mapping("[nmpc]", nmpc):
+            nmpc = {**nmpc, "solver_options": dict(check_mapping("nmpc.solver_options", nmpc["solver_options"]))}
         return cls(
-            nmpc=NMPCSettings(**nmpc),
-            forward=PurePursuitSettings(**data.get("forward", {})),
-            success=SuccessCriteria(**data.get("success", {})),
+            nmpc=build(NMPCSettings, nmpc, "nmpc", convert={k: _listed for k in ("Q", "R", "P")}),
+            forward=build(PurePursuitSettings, tables.get("forward", {}), "forward"),
+            success=build(SuccessCriteria, tables.get("success", {}), "success"),
         )
+
+
+def _listed(value: Any) -> Any:
+    """A TOML or JSON list as the tuple a settings field holds."""
+    return tuple(value) if isinstance(value, list) else value
+
+
+#: The tables of maneuver settings in a file.
+_SETTINGS_TABLES = ("nmpc", "forward", "success")
 
 
 @dataclass(frozen=True)
 class StageResult:
     """One stage: its kind, number of applied steps, rows [first_row, last_row] and its end errors."""
 
-    kind: str
-    steps: int
-    distance_error_m: float
-    orientation_error_deg: float
-    final_hitch_deg: float
-    first_row: int
-    last_row: int
-    reason: str
+    kind: str = checked(check=Choice(("reverse", "forward")))
+    steps: int = checked(check=Integer(0))
+    distance_error_m: float = checked(check=Real(0.0))
+    orientation_error_deg: float = checked(check=Real(-180.0, 180.0, unit="deg"))
+    final_hitch_deg: float = checked(check=Real(-180.0, 180.0, unit="deg"))
+    first_row: int = checked(check=Integer(0))
+    last_row: int = checked(check=Integer(0))
+    reason: str = checked(check=Text(max_length=200))
+
+    def __post_init__(self) -> None:
+        check_fields(self, "stage.")
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -187,36 +231,39 @@ class ManeuverResult:
         }
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> ManeuverResult:
-        """Rebuild a saved result; a malformed one is a ``ValueError`` that says what is wrong."""
-        try:
-            settings = ManeuverSettings.from_dict(data.get("settings", {}))
-            vehicle = vehicle_from_dict(data["vehicle"])
-            plant = PlantSettings.from_dict(data["plant"]) if "plant" in data else PlantSettings(kind="ideal")
-            reason = str(data["reason"])
-            detail = str(data.get("detail", ""))
-            if reason.startswith("solver:"):  # written before outcomes were an enum
-                reason, detail = "solver", reason.partition(":")[2].strip()
-            Outcome(reason)
-            result = cls(
-                vehicle=vehicle,
-                start=State.from_dict(data["start"]),
-                goal=Pose.from_dict(data["goal"]),
-                settings=settings,
-                success=bool(data["success"]),
-                reason=reason,
-                stages=tuple(StageResult(**st) for st in data["stages"]),
-                trajectory=Trajectory.from_dict(data["trajectory"]),
-                name=str(data.get("name", "")),
-                plant=plant,
-                detail=detail,
-            )
-        except InputError:
-            raise
-        except KeyError as exc:
-            raise InputError(f"maneuver data lacks {exc}") from None
-        except (TypeError, AttributeError, ValueError) as exc:
-            raise InputError(f"maneuver data is malformed: {exc}") from None
+    def from_dict(cls, data: Any) -> ManeuverResult:
+        """Rebuild a saved result, checked field by field; a malformed one is an ``InputError`` saying what."""
+        known = (*_SAVED_KEYS, *_DERIVED_KEYS)
+        data = check_keys("maneuver", data, known, "top-level key {!r}")
+        missing = [k for k in _REQUIRED_KEYS if k not in data]
+        if missing:
+            raise InputError(f"maneuver data lacks {missing[0]!r}")
+        settings = ManeuverSettings.from_dict(data.get("settings", {}))
+        vehicle = vehicle_from_dict(data["vehicle"])
+        plant = PlantSettings.from_dict(data["plant"]) if "plant" in data else PlantSettings(kind="ideal")
+        reason = check_text("reason", data["reason"], max_length=500)
+        detail = check_text("detail", data.get("detail", ""), max_length=2000)
+        if reason.startswith("solver:"):  # written before outcomes were an enum
+            reason, detail = "solver", reason.partition(":")[2].strip()
+        check_choice("reason", reason, [o.value for o in Outcome])
+        stages = data["stages"]
+        if not isinstance(stages, list):
+            raise InputError(f"stages must be a list of stage tables, got {shown(stages)}")
+        start = State.from_dict(data["start"])
+        check_state(vehicle, start)
+        result = cls(
+            vehicle=vehicle,
+            start=start,
+            goal=Pose.from_dict(data["goal"]),
+            settings=settings,
+            success=check_flag("success", data["success"]),
+            reason=reason,
+            stages=tuple(build(StageResult, st, f"stages[{i}]") for i, st in enumerate(stages)),
+            trajectory=Trajectory.from_dict(data["trajectory"], finite=FINITE_COLUMNS),
+            name=check_text("name", data.get("name", ""), max_length=200),
+            plant=plant,
+            detail=detail,
+        )
         result._check_layout()
         return result
 
@@ -238,10 +285,6 @@ class ManeuverResult:
             raise InputError("maneuver has no rows or no stages")
         expected_first = 0
         for i, st in enumerate(self.stages):
-            if st.kind not in ("reverse", "forward"):
-                raise InputError(f"stage {i} kind must be 'reverse' or 'forward', got {st.kind!r}")
-            if not (isinstance(st.first_row, int) and isinstance(st.last_row, int)):
-                raise InputError(f"stage {i} rows must be integers, got {st.first_row!r}, {st.last_row!r}")
             if st.first_row != expected_first or not st.first_row <= st.last_row < n:
                 raise InputError(
                     f"stage {i} rows [{st.first_row}, {st.last_row}] do not follow on from row {expected_first} "

@@ -28,25 +28,26 @@ The four scenarios of Section 6.1 ship with the package (:func:`builtin_scenario
 from __future__ import annotations
 
 import math
-import re
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from ..checks import InputError, check_number
-from ..control.ocp import NMPCSettings
-from ..control.pure_pursuit import PurePursuitSettings
+from ..checks import InputError, check_keys, check_number, check_text
 from ..io import read_toml
 from ..model.plant import PlantSettings
-from ..model.state import Pose, State, check_state
+from ..model.state import Pose, State, check_pose, check_state
 from ..model.vehicle import VehicleTrailer, vehicle_from_dict
-from .result import ManeuverSettings, SuccessCriteria
+from .result import ManeuverSettings
 
 __all__ = ["BUILTIN_ORDER", "Scenario", "builtin_scenarios", "load_scenario", "scenario_from_dict"]
 
 #: The paper's four scenarios, in its order.
 BUILTIN_ORDER = ("parallel", "parallel_hitch", "perpendicular", "random")
+
+#: A scenario's name names its output folder: letters, digits, '_', '.', '-', not starting with a dot.
+NAME_PATTERN = r"[A-Za-z0-9][A-Za-z0-9_.-]*"
+NAME_RULE = "letters, digits, '_', '.' or '-', not starting with '.' or '-' (it names a folder)"
 
 _TOP = ("name", "description", "start", "goal", "vehicle", "plant", "nmpc", "forward", "success")
 
@@ -65,63 +66,29 @@ class Scenario:
     plant: PlantSettings = field(default_factory=PlantSettings)
 
 
-def _table(data: dict[str, Any], key: str) -> dict[str, Any]:
-    value = data.get(key, {})
-    if not isinstance(value, dict):
-        raise InputError(f"[{key}] must be a table, got {type(value).__name__}")
-    return value
-
-
-def _number(table: str, key: str, value: Any) -> float:
-    return check_number(f"{table}.{key}", value)
-
-
-def _pose_fields(table: str, data: dict[str, Any], keys: tuple[str, ...], required: bool) -> dict[str, float]:
-    unknown = sorted(set(data) - set(keys))
-    if unknown:
-        raise InputError(f"unknown key {table}.{unknown[0]}; allowed: {', '.join(keys)}")
-    missing = [k for k in keys if k not in data]
+def _pose_fields(table: str, data: Any, keys: tuple[str, ...], required: bool) -> dict[str, float]:
+    values = check_keys(table, data, keys)
+    missing = [k for k in keys if k not in values]
     if required and missing:
         raise InputError(f"{table}.{missing[0]} is missing; [{table}] needs {', '.join(keys)}")
-    return {k: _number(table, k, data[k]) for k in keys if k in data}
-
-
-def _settings(cls: type, table: str, data: dict[str, Any]) -> Any:
-    allowed = tuple(f.name for f in fields(cls) if f.name != "solver_options")
-    unknown = sorted(set(data) - set(allowed))
-    if unknown:
-        raise InputError(f"unknown key {table}.{unknown[0]}; allowed: {', '.join(allowed)}")
-    values = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
-    try:
-        return cls(**values)
-    except TypeError as exc:
-        raise InputError(f"[{table}]: {exc}") from None
+    return {k: check_number(f"{table}.{k}", v) for k, v in values.items()}
 
 
 def scenario_from_dict(data: dict[str, Any], path: Path | None = None) -> Scenario:
     """Build and check a :class:`Scenario` from parsed TOML."""
-    unknown = sorted(set(data) - set(_TOP))
-    if unknown:
-        raise InputError(f"unknown top-level key {unknown[0]!r}; allowed: {', '.join(_TOP)}")
+    data = check_keys("scenario", data, _TOP, "top-level key {!r}")
     if "start" not in data:
         raise InputError("[start] is missing: it needs x, y, yaw_deg, hitch_deg")
-    start_d = _pose_fields("start", _table(data, "start"), ("x", "y", "yaw_deg", "hitch_deg"), required=True)
-    goal_d = _pose_fields("goal", _table(data, "goal"), ("x", "y", "yaw_deg"), required=False)
-    name = data.get("name", path.stem if path else "scenario")
-    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", name):
-        raise InputError(f"name must be letters, digits, '_', '.' or '-' (it names a folder), got {name!r}")
-    description = data.get("description", "")
-    if not isinstance(description, str):
-        raise InputError(f"description must be a string, got {description!r}")
-    vehicle = vehicle_from_dict(_table(data, "vehicle"))
+    start_d = _pose_fields("start", data["start"], ("x", "y", "yaw_deg", "hitch_deg"), required=True)
+    goal_d = _pose_fields("goal", data.get("goal", {}), ("x", "y", "yaw_deg"), required=False)
+    name = check_text("name", data.get("name", path.stem if path else "scenario"), NAME_PATTERN, NAME_RULE, 100)
+    description = check_text("description", data.get("description", ""), max_length=10_000)
+    vehicle = vehicle_from_dict(data.get("vehicle", {}))
+    check_pose("start", start_d["x"], start_d["y"], math.radians(start_d["yaw_deg"]))
     start = State(start_d["x"], start_d["y"], math.radians(start_d["yaw_deg"]), math.radians(start_d["hitch_deg"]))
     goal = Pose(goal_d.get("x", 0.0), goal_d.get("y", 0.0), math.radians(goal_d.get("yaw_deg", 0.0)))
-    settings = ManeuverSettings(
-        nmpc=_settings(NMPCSettings, "nmpc", _table(data, "nmpc")),
-        forward=_settings(PurePursuitSettings, "forward", _table(data, "forward")),
-        success=_settings(SuccessCriteria, "success", _table(data, "success")),
-    )
-    plant = PlantSettings.from_dict(_table(data, "plant"))
+    settings = ManeuverSettings.from_dict({k: data[k] for k in ("nmpc", "forward", "success") if k in data})
+    plant = PlantSettings.from_dict(data.get("plant", {}))
     vehicle.require_hitch_offset()
     check_state(vehicle, start)
     check_state(plant.resolve_vehicle(vehicle), start)

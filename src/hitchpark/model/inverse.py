@@ -10,11 +10,12 @@ from __future__ import annotations
 
 from typing import Any
 
+import casadi as ca
 import numpy as np
 
-from ..checks import InputError
+from ..checks import check_range, check_values
 from .kinematics import full_rates, ops
-from .vehicle import VehicleTrailer
+from .vehicle import VehicleTrailer, check_vehicle
 
 __all__ = [
     "actual_virtual_steer",
@@ -27,11 +28,20 @@ __all__ = [
 ]
 
 
+def _inputs(vehicle: Any, **values: Any) -> None:
+    """Refuse a non-vehicle and non-finite or non-numeric inputs; CasADi symbols pass (the OCP's own use)."""
+    check_vehicle(vehicle)
+    for name, value in values.items():
+        if not isinstance(value, ca.SX | ca.MX | ca.DM):
+            check_values(name, value)
+
+
 def front_steer_from_virtual(vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any) -> Any:
     """Front steer delta_f that makes the trailer move as if steered by ``virtual_steer``, Eq. (45).
 
     Needs L_H > 0. Equivalent to tan(delta_f) = (L / L_H) tan(hitch - delta_T).
     """
+    _inputs(vehicle, hitch_angle=hitch_angle, virtual_steer=virtual_steer)
     vehicle.require_hitch_offset()
     m = ops(hitch_angle, virtual_steer)
     s, c, t = m.sin(hitch_angle), m.cos(hitch_angle), m.tan(virtual_steer)
@@ -47,6 +57,7 @@ def virtual_steer_from_front(vehicle: VehicleTrailer, hitch_angle: Any, front_st
     positive whenever |hitch - delta_T| < 90 deg), so the answer stays on the right
     branch for large hitch angles too. Works for L_H = 0 (then delta_T = hitch).
     """
+    _inputs(vehicle, hitch_angle=hitch_angle, front_steer=front_steer)
     m = ops(hitch_angle, front_steer)
     s, c, t = m.sin(hitch_angle), m.cos(hitch_angle), m.tan(front_steer)
     L, L_H = vehicle.wheelbase, vehicle.hitch_offset
@@ -61,6 +72,7 @@ def _eq44_ratio(hitch_angle: Any, virtual_steer: Any) -> Any:
 
 def trailer_speed_from_virtual(vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, rear_speed: Any) -> Any:
     """Trailer-axle speed V_T from the rear-axle speed V_R, Eq. (44)."""
+    _inputs(vehicle, hitch_angle=hitch_angle, virtual_steer=virtual_steer, rear_speed=rear_speed)
     return rear_speed / _eq44_ratio(hitch_angle, virtual_steer)  # Eq. (44)
 
 
@@ -68,6 +80,7 @@ def rear_speed_from_trailer_speed(
     vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, trailer_speed: Any
 ) -> Any:
     """Rear-axle speed V_R that gives the trailer axle the speed V_T: Eq. (44) solved for V_R."""
+    _inputs(vehicle, hitch_angle=hitch_angle, virtual_steer=virtual_steer, trailer_speed=trailer_speed)
     return trailer_speed * _eq44_ratio(hitch_angle, virtual_steer)  # Eq. (44)
 
 
@@ -75,6 +88,7 @@ def vehicle_yaw_rate_from_virtual(
     vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, trailer_speed: Any
 ) -> Any:
     """Vehicle yaw rate that the virtual input asks for, Eq. (43). Needs L_H > 0."""
+    _inputs(vehicle, hitch_angle=hitch_angle, virtual_steer=virtual_steer, trailer_speed=trailer_speed)
     vehicle.require_hitch_offset()
     m = ops(hitch_angle, virtual_steer, trailer_speed)
     s, c = m.sin(hitch_angle), m.cos(hitch_angle)
@@ -111,9 +125,9 @@ def virtual_steer_bounds(vehicle: VehicleTrailer, hitch_angle: Any, virtual_limi
     both bounds collapse onto the end of [lb1, ub1] nearest the virtual range.
     Returns ``(low, high)``, floats or arrays like ``hitch_angle``.
     """
+    _inputs(vehicle, hitch_angle=hitch_angle)
+    virtual_limit = check_range("virtual_limit", virtual_limit, 0.0, np.pi / 2, low_open=True, high_open=True)
     vehicle.require_hitch_offset()  # at L_H = 0 the virtual steer is pinned to the hitch angle
-    if not np.isfinite(virtual_limit) or virtual_limit <= 0:
-        raise InputError(f"virtual_limit must be a finite angle > 0 rad, got {virtual_limit!r}")
     lb1 = virtual_steer_from_front(vehicle, hitch_angle, vehicle.max_steer)  # Eq. (56) at delta_f,max
     ub1 = virtual_steer_from_front(vehicle, hitch_angle, -vehicle.max_steer)  # Eq. (56) at delta_f,min
     low = np.clip(np.maximum(lb1, -virtual_limit), lb1, ub1)  # Eq. (57), clipped into [lb1, ub1]

@@ -25,14 +25,14 @@ import functools
 import math
 from collections import deque
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
-from ..checks import InputError, check_int, check_range
+from ..checks import Choice, InputError, Integer, Real, build, check_fields, checked
 from ..io import read_toml
 from .integrate import PLANT_SUBSTEPS, plant_function, rk4_timed
 from .kinematics import full_rhs
@@ -75,37 +75,22 @@ class PlantSettings:
         Noise seed; each maneuver draws from a stream seeded by this and its start (:func:`case_seed`).
     """
 
-    kind: str = "realistic"
+    kind: str = checked("realistic", Choice(PLANT_KINDS))
     vehicle: Mapping[str, float] = field(default_factory=dict, hash=False)
-    steer_rate_max: float = 0.6
-    steer_time_constant: float = 0.1
-    accel_max: float = 1.0
-    delay_steps: int = 0
-    hitch_noise_std_deg: float = 0.0
-    position_noise_std_m: float = 0.0
-    yaw_noise_std_deg: float = 0.0
-    hitch_bias_deg: float = 0.0
-    seed: int = 0
+    steer_rate_max: float = checked(0.6, Real(0.0, 10.0, low_open=True, unit="rad/s"))
+    steer_time_constant: float = checked(0.1, Real(0.0, 2.0, unit="s"))
+    accel_max: float = checked(1.0, Real(0.0, 20.0, low_open=True, unit="m/s^2"))
+    delay_steps: int = checked(0, Integer(0, 50))
+    hitch_noise_std_deg: float = checked(0.0, Real(0.0, 10.0, unit="deg"))
+    position_noise_std_m: float = checked(0.0, Real(0.0, 5.0, unit="m"))
+    yaw_noise_std_deg: float = checked(0.0, Real(0.0, 10.0, unit="deg"))
+    hitch_bias_deg: float = checked(0.0, Real(-20.0, 20.0, unit="deg"))
+    seed: int = checked(0, Integer(0, 2**63 - 1))
 
     def __post_init__(self) -> None:
-        def put(name: str, value: Any) -> None:
-            object.__setattr__(self, name, value)
-
-        if self.kind not in PLANT_KINDS:
-            raise InputError(f"plant.kind must be one of {', '.join(PLANT_KINDS)}, got {self.kind!r}")
-        if not isinstance(self.vehicle, Mapping):
-            raise InputError(f"plant.vehicle must be a table of vehicle fields, got {self.vehicle!r}")
-        vehicle_from_dict(dict(self.vehicle))  # unknown or bad fields fail here, not mid-maneuver
-        put("vehicle", dict(self.vehicle))
-        put("steer_rate_max", check_range("plant.steer_rate_max", self.steer_rate_max, 0.0, 10.0, low_open=True))
-        put("steer_time_constant", check_range("plant.steer_time_constant", self.steer_time_constant, 0.0, 2.0))
-        put("accel_max", check_range("plant.accel_max", self.accel_max, 0.0, 20.0, low_open=True))
-        put("delay_steps", check_int("plant.delay_steps", self.delay_steps, 0, 50))
-        put("hitch_noise_std_deg", check_range("plant.hitch_noise_std_deg", self.hitch_noise_std_deg, 0.0, 10.0))
-        put("yaw_noise_std_deg", check_range("plant.yaw_noise_std_deg", self.yaw_noise_std_deg, 0.0, 10.0))
-        put("position_noise_std_m", check_range("plant.position_noise_std_m", self.position_noise_std_m, 0.0, 5.0))
-        put("hitch_bias_deg", check_range("plant.hitch_bias_deg", self.hitch_bias_deg, -20.0, 20.0))
-        put("seed", check_int("plant.seed", self.seed, 0, 2**63 - 1))
+        check_fields(self, "plant.")
+        vehicle_from_dict(self.vehicle, what="plant.vehicle")  # unknown or bad fields fail here, not mid-maneuver
+        object.__setattr__(self, "vehicle", dict(self.vehicle))
 
     def resolve_vehicle(self, model: VehicleTrailer) -> VehicleTrailer:
         """The real vehicle: the controller's ``model`` with this plant's vehicle fields on top."""
@@ -117,14 +102,7 @@ class PlantSettings:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], what: str = "plant") -> PlantSettings:
         """From a ``[plant]`` table (``vehicle`` a nested table); unknown keys are refused."""
-        allowed = tuple(f.name for f in fields(cls))
-        unknown = sorted(set(data) - set(allowed))
-        if unknown:
-            raise InputError(f"unknown key {what}.{unknown[0]}; allowed: {', '.join(allowed)}")
-        try:
-            return cls(**data)
-        except TypeError as exc:
-            raise InputError(f"[{what}]: {exc}") from None
+        return build(cls, data, what)
 
 
 #: The paper's plant: commands act at once, no delay, perfect sensors.

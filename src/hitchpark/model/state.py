@@ -9,16 +9,16 @@ along the goal heading.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from ..checks import MAX_COORDINATE, MAX_YAW, InputError, check_number, check_range
+from ..checks import MAX_COORDINATE, MAX_YAW, InputError, check_instance, check_keys, check_number, check_range
 from .vehicle import VehicleTrailer
 
-__all__ = ["Pose", "State", "check_pose", "check_state", "to_goal_frame", "wrap_angle"]
+__all__ = ["Pose", "State", "check_goal", "check_pose", "check_state", "to_goal_frame", "wrap_angle"]
 
 
 def wrap_angle(a: Any) -> Any:
@@ -51,8 +51,10 @@ class Pose:
         return {"x": self.x, "y": self.y, "yaw_deg": math.degrees(self.yaw)}
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> Pose:
-        return cls(float(data["x"]), float(data["y"]), math.radians(data["yaw_deg"]))
+    def from_dict(cls, data: Any, what: str = "goal") -> Pose:
+        """From ``{"x", "y", "yaw_deg"}`` (metres, degrees), as :meth:`to_dict` writes it."""
+        x, y, yaw_deg = _numbers(what, data, ("x", "y", "yaw_deg"))
+        return cls(x, y, math.radians(yaw_deg))
 
 
 @dataclass(frozen=True)
@@ -63,6 +65,12 @@ class State:
     y: float
     yaw: float
     hitch: float
+
+    def __post_init__(self) -> None:
+        check_pose("state", self.x, self.y, self.yaw)
+        object.__setattr__(self, "hitch", check_range("state hitch", self.hitch, -math.pi, math.pi, unit="rad"))
+        for name in ("x", "y", "yaw"):
+            object.__setattr__(self, name, float(getattr(self, name)))
 
     def as_array(self) -> np.ndarray:
         return np.array([self.x, self.y, self.yaw, self.hitch], dtype=float)
@@ -76,12 +84,24 @@ class State:
         return {"x": self.x, "y": self.y, "yaw_deg": math.degrees(self.yaw), "hitch_deg": math.degrees(self.hitch)}
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> State:
-        return cls(float(data["x"]), float(data["y"]), math.radians(data["yaw_deg"]), math.radians(data["hitch_deg"]))
+    def from_dict(cls, data: Any, what: str = "start") -> State:
+        """From ``{"x", "y", "yaw_deg", "hitch_deg"}`` (metres, degrees), as :meth:`to_dict` writes it."""
+        x, y, yaw_deg, hitch_deg = _numbers(what, data, ("x", "y", "yaw_deg", "hitch_deg"))
+        return cls(x, y, math.radians(yaw_deg), math.radians(hitch_deg))
+
+
+def _numbers(what: str, data: Any, keys: tuple[str, ...]) -> list[float]:
+    """The numbers ``data[key]`` of a pose table, all present, no other key, each a finite number."""
+    table = check_keys(what, data, keys)
+    missing = [k for k in keys if k not in table]
+    if missing:
+        raise InputError(f"{what}.{missing[0]} is missing; [{what}] needs {', '.join(keys)}")
+    return [check_number(f"{what}.{k}", table[k]) for k in keys]
 
 
 def check_state(vehicle: VehicleTrailer, state: State, what: str = "start") -> None:
     """Raise ``InputError`` if ``state`` is not a finite pose in range or is beyond the jackknife limit."""
+    check_instance(what, state, State, "hitchpark.State(x, y, yaw_rad, hitch_rad)")
     check_pose(what, state.x, state.y, state.yaw)
     check_number(f"{what} hitch", state.hitch)
     if abs(state.hitch) > vehicle.max_hitch:
@@ -89,6 +109,13 @@ def check_state(vehicle: VehicleTrailer, state: State, what: str = "start") -> N
             f"{what} hitch angle must be within the jackknife limit +-{math.degrees(vehicle.max_hitch):g} deg, "
             f"got {math.degrees(state.hitch):g} deg"
         )
+
+
+def check_goal(goal: Any) -> Pose:
+    """The goal pose: ``None`` is the origin heading +x; anything but a :class:`Pose` is refused."""
+    if goal is None:
+        return Pose()
+    return check_instance("goal", goal, Pose, "hitchpark.Pose(x, y, yaw_rad)")
 
 
 def to_goal_frame(goal: Pose, x: Any, y: Any, yaw: Any) -> tuple[Any, Any, Any]:

@@ -7,10 +7,24 @@ from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-from ..checks import InputError, check_range
+from ..checks import InputError, Real, check_fields, check_instance, check_keys, checked
 from ..io import read_toml
 
-__all__ = ["VehicleTrailer", "load_vehicle", "vehicle_from_dict"]
+__all__ = ["VehicleTrailer", "check_vehicle", "load_vehicle", "vehicle_from_dict"]
+
+
+#: Upper bounds of the lengths [m]: past a truck tractor's wheelbase and a semi-trailer's kingpin-to-axle
+#: length; a number beyond them is a typo (or a unit mistake), not a vehicle.
+MAX_WHEELBASE = 10.0
+MAX_HITCH_OFFSET = 5.0
+MAX_TRAILER_LENGTH = 20.0
+MAX_OVERHANG = 5.0
+#: Widest body [m]: road-legal vehicles and trailers are at most 2.55 m (EU) / 2.6 m (US) wide.
+MAX_WIDTH = 3.5
+
+_ANGLE_LIMIT = Real(0.0, math.pi / 2, low_open=True, high_open=True, unit="rad (0 to 90 deg)")
+_OVERHANG = Real(0.0, MAX_OVERHANG, low_open=True, unit="m")
+_WIDTH = Real(0.0, MAX_WIDTH, low_open=True, unit="m")
 
 
 @dataclass(frozen=True)
@@ -50,47 +64,22 @@ class VehicleTrailer:
         Longitudinal acceleration the controllers may command [m/s^2], in (0, 10]. Default 1 m/s^2.
     """
 
-    wheelbase: float = 2.896
-    hitch_offset: float = 1.159
-    trailer_length: float = 2.693
-    max_steer: float = 0.75
-    max_hitch: float = math.radians(70.0)
-    front_overhang: float = 0.95
-    rear_overhang: float = 1.0
-    vehicle_width: float = 1.95
-    trailer_front: float = 2.0
-    trailer_rear: float = 1.0
-    trailer_width: float = 1.8
-    max_steer_rate: float = 0.6
-    max_accel: float = 1.0
+    wheelbase: float = checked(2.896, Real(0.0, MAX_WHEELBASE, low_open=True, unit="m"))
+    hitch_offset: float = checked(1.159, Real(0.0, MAX_HITCH_OFFSET, unit="m (hitch behind the rear axle)"))
+    trailer_length: float = checked(2.693, Real(0.0, MAX_TRAILER_LENGTH, low_open=True, unit="m"))
+    max_steer: float = checked(0.75, _ANGLE_LIMIT)
+    max_hitch: float = checked(math.radians(70.0), _ANGLE_LIMIT)
+    front_overhang: float = checked(0.95, _OVERHANG)
+    rear_overhang: float = checked(1.0, _OVERHANG)
+    vehicle_width: float = checked(1.95, _WIDTH)
+    trailer_front: float = checked(2.0, Real(0.0, MAX_TRAILER_LENGTH, low_open=True, unit="m"))
+    trailer_rear: float = checked(1.0, _OVERHANG)
+    trailer_width: float = checked(1.8, _WIDTH)
+    max_steer_rate: float = checked(0.6, Real(0.0, 10.0, low_open=True, unit="rad/s"))
+    max_accel: float = checked(1.0, Real(0.0, 10.0, low_open=True, unit="m/s^2"))
 
     def __post_init__(self) -> None:
-        def put(name: str, value: float) -> None:
-            object.__setattr__(self, name, value)
-
-        for name in (
-            "wheelbase",
-            "trailer_length",
-            "front_overhang",
-            "rear_overhang",
-            "vehicle_width",
-            "trailer_front",
-            "trailer_rear",
-            "trailer_width",
-        ):
-            put(name, check_range(name, getattr(self, name), 0.0, low_open=True, unit="m"))
-        put("hitch_offset", check_range("hitch_offset", self.hitch_offset, 0.0, unit="m (hitch behind the rear axle)"))
-        for name in ("max_steer", "max_hitch"):
-            put(
-                name,
-                check_range(
-                    name, getattr(self, name), 0.0, math.pi / 2, low_open=True, high_open=True, unit="rad (0 to 90 deg)"
-                ),
-            )
-        put(
-            "max_steer_rate", check_range("max_steer_rate", self.max_steer_rate, 0.0, 10.0, low_open=True, unit="rad/s")
-        )
-        put("max_accel", check_range("max_accel", self.max_accel, 0.0, 10.0, low_open=True, unit="m/s^2"))
+        check_fields(self)
         if self.trailer_front >= self.trailer_length:
             raise InputError(
                 f"trailer_front must be < trailer_length ({self.trailer_length:g} m): "
@@ -112,12 +101,15 @@ class VehicleTrailer:
 _FIELDS = tuple(f.name for f in fields(VehicleTrailer))
 
 
-def vehicle_from_dict(data: dict[str, Any], base: VehicleTrailer | None = None) -> VehicleTrailer:
-    """Build a vehicle from a mapping of field names, starting from ``base`` (default: Table 4)."""
-    unknown = sorted(set(data) - set(_FIELDS))
-    if unknown:
-        raise InputError(f"unknown vehicle field {unknown[0]!r}; allowed fields: {', '.join(_FIELDS)}")
-    return replace(base or VehicleTrailer(), **data)
+def check_vehicle(vehicle: Any, name: str = "vehicle") -> VehicleTrailer:
+    """``vehicle`` if it is a :class:`VehicleTrailer`; else an ``InputError``."""
+    return check_instance(name, vehicle, VehicleTrailer, "hitchpark.VehicleTrailer(...)")
+
+
+def vehicle_from_dict(data: Any, base: VehicleTrailer | None = None, what: str = "vehicle") -> VehicleTrailer:
+    """Build a vehicle from a mapping of field names (the table ``[what]``), on top of ``base`` (default: Table 4)."""
+    table = check_keys(what, data, _FIELDS)
+    return replace(base or VehicleTrailer(), **table)
 
 
 def load_vehicle(path: str | Path, base: VehicleTrailer | None = None) -> VehicleTrailer:
