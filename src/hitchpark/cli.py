@@ -33,7 +33,12 @@ class _Parser(argparse.ArgumentParser):
         self._negative_number_matcher = re.compile(r"^-(\.?\d[\d.,eE+-]*|inf(inity)?|nan)(,.*)?$", re.IGNORECASE)
 
     def error(self, message: str) -> NoReturn:
-        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see --help)\n")
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {one_line(message)} (see --help)\n")
+
+
+def one_line(text: str) -> str:
+    """``text`` safe to print as one line: control characters (a newline in an argument, say) escaped."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in " ".join(text.split()))
 
 
 def _floats(text: str, count: int, what: str, names: str) -> list[float]:
@@ -387,7 +392,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args))
     except InputError as exc:  # any other exception is a bug and keeps its traceback
-        print(f"hitchpark {args.command}: error: {exc}", file=sys.stderr)
+        print(f"hitchpark {args.command}: error: {one_line(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BrokenPipeError:  # the reader of stdout went away (`hitchpark ... | head`): stop quietly
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
