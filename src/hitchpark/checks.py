@@ -194,6 +194,10 @@ def check_values(
     Strings, booleans, objects and ragged lists are refused, so are complex numbers. ``ndim``
     fixes the number of dimensions. Returns a float array (0-d for a number).
     """
+    if isinstance(value, float | int) and not isinstance(value, bool) and ndim in (None, 0):  # one number: fast
+        if allow_nan and math.isnan(value):
+            return np.asarray(math.nan)
+        return np.asarray(check_range(name, value, low, high, unit=unit))
     if isinstance(value, bool | np.bool_ | str | bytes):
         raise InputError(f"{name} must be numbers, got {shown(value)}")
     if isinstance(value, list | tuple):  # JSON or Python lists: every item a number, whatever NumPy would cast

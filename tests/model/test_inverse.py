@@ -10,6 +10,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from hitchpark.checks import InputError
 from hitchpark.model import (
     VehicleTrailer,
     actual_virtual_steer,
@@ -296,3 +297,11 @@ def test_bounds_reject_bad_virtual_limit(table2, limit):
 def test_bounds_need_a_hitch_offset():
     with pytest.raises(ValueError, match="hitch_offset"):
         virtual_steer_bounds(VehicleTrailer(hitch_offset=0.0), 0.1, 0.5)
+
+
+def test_lists_and_python_ints_are_numbers_too(table4):
+    # Found by the fuzz suite: a tuple of speeds and an int past NumPy's int64 used to raise TypeError.
+    assert rear_speed_from_trailer_speed(table4, 0.0, 0.0, (1, 2)) == pytest.approx([1.0, 2.0])
+    assert math.isfinite(virtual_steer_from_front(table4, 0.0, -(2**63) - 1))
+    with pytest.raises(InputError, match="hitch_angle must be finite"):
+        virtual_steer_bounds(table4, [0.1, math.nan], 0.5)

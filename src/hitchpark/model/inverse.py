@@ -28,12 +28,22 @@ __all__ = [
 ]
 
 
-def _inputs(vehicle: Any, **values: Any) -> None:
-    """Refuse a non-vehicle and non-finite or non-numeric inputs; CasADi symbols pass (the OCP's own use)."""
+def _inputs(vehicle: Any, **values: Any) -> list[Any]:
+    """The inputs, checked: a vehicle, finite numbers or arrays (lists become arrays); CasADi symbols pass."""
     check_vehicle(vehicle)
+    out: list[Any] = []
     for name, value in values.items():
-        if not isinstance(value, ca.SX | ca.MX | ca.DM):
-            check_values(name, value)
+        if isinstance(value, ca.SX | ca.MX | ca.DM):
+            out.append(value)
+        else:
+            array = check_values(name, value)
+            if isinstance(value, list | tuple):
+                out.append(array)
+            elif isinstance(value, int):  # Python's ints can outgrow NumPy's
+                out.append(float(array))
+            else:
+                out.append(value)
+    return out
 
 
 def front_steer_from_virtual(vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any) -> Any:
@@ -41,7 +51,7 @@ def front_steer_from_virtual(vehicle: VehicleTrailer, hitch_angle: Any, virtual_
 
     Needs L_H > 0. Equivalent to tan(delta_f) = (L / L_H) tan(hitch - delta_T).
     """
-    _inputs(vehicle, hitch_angle=hitch_angle, virtual_steer=virtual_steer)
+    hitch_angle, virtual_steer = _inputs(vehicle, hitch_angle=hitch_angle, virtual_steer=virtual_steer)
     vehicle.require_hitch_offset()
     m = ops(hitch_angle, virtual_steer)
     s, c, t = m.sin(hitch_angle), m.cos(hitch_angle), m.tan(virtual_steer)
@@ -57,7 +67,7 @@ def virtual_steer_from_front(vehicle: VehicleTrailer, hitch_angle: Any, front_st
     positive whenever |hitch - delta_T| < 90 deg), so the answer stays on the right
     branch for large hitch angles too. Works for L_H = 0 (then delta_T = hitch).
     """
-    _inputs(vehicle, hitch_angle=hitch_angle, front_steer=front_steer)
+    hitch_angle, front_steer = _inputs(vehicle, hitch_angle=hitch_angle, front_steer=front_steer)
     m = ops(hitch_angle, front_steer)
     s, c, t = m.sin(hitch_angle), m.cos(hitch_angle), m.tan(front_steer)
     L, L_H = vehicle.wheelbase, vehicle.hitch_offset
@@ -72,7 +82,9 @@ def _eq44_ratio(hitch_angle: Any, virtual_steer: Any) -> Any:
 
 def trailer_speed_from_virtual(vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, rear_speed: Any) -> Any:
     """Trailer-axle speed V_T from the rear-axle speed V_R, Eq. (44)."""
-    _inputs(vehicle, hitch_angle=hitch_angle, virtual_steer=virtual_steer, rear_speed=rear_speed)
+    hitch_angle, virtual_steer, rear_speed = _inputs(
+        vehicle, hitch_angle=hitch_angle, virtual_steer=virtual_steer, rear_speed=rear_speed
+    )
     return rear_speed / _eq44_ratio(hitch_angle, virtual_steer)  # Eq. (44)
 
 
@@ -80,7 +92,9 @@ def rear_speed_from_trailer_speed(
     vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, trailer_speed: Any
 ) -> Any:
     """Rear-axle speed V_R that gives the trailer axle the speed V_T: Eq. (44) solved for V_R."""
-    _inputs(vehicle, hitch_angle=hitch_angle, virtual_steer=virtual_steer, trailer_speed=trailer_speed)
+    hitch_angle, virtual_steer, trailer_speed = _inputs(
+        vehicle, hitch_angle=hitch_angle, virtual_steer=virtual_steer, trailer_speed=trailer_speed
+    )
     return trailer_speed * _eq44_ratio(hitch_angle, virtual_steer)  # Eq. (44)
 
 
@@ -88,7 +102,9 @@ def vehicle_yaw_rate_from_virtual(
     vehicle: VehicleTrailer, hitch_angle: Any, virtual_steer: Any, trailer_speed: Any
 ) -> Any:
     """Vehicle yaw rate that the virtual input asks for, Eq. (43). Needs L_H > 0."""
-    _inputs(vehicle, hitch_angle=hitch_angle, virtual_steer=virtual_steer, trailer_speed=trailer_speed)
+    hitch_angle, virtual_steer, trailer_speed = _inputs(
+        vehicle, hitch_angle=hitch_angle, virtual_steer=virtual_steer, trailer_speed=trailer_speed
+    )
     vehicle.require_hitch_offset()
     m = ops(hitch_angle, virtual_steer, trailer_speed)
     s, c = m.sin(hitch_angle), m.cos(hitch_angle)
@@ -125,7 +141,7 @@ def virtual_steer_bounds(vehicle: VehicleTrailer, hitch_angle: Any, virtual_limi
     both bounds collapse onto the end of [lb1, ub1] nearest the virtual range.
     Returns ``(low, high)``, floats or arrays like ``hitch_angle``.
     """
-    _inputs(vehicle, hitch_angle=hitch_angle)
+    (hitch_angle,) = _inputs(vehicle, hitch_angle=hitch_angle)
     virtual_limit = check_range("virtual_limit", virtual_limit, 0.0, np.pi / 2, low_open=True, high_open=True)
     vehicle.require_hitch_offset()  # at L_H = 0 the virtual steer is pinned to the hitch angle
     lb1 = virtual_steer_from_front(vehicle, hitch_angle, vehicle.max_steer)  # Eq. (56) at delta_f,max
