@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from .checks import InputError
+from .outputs import replacing
 
 __all__ = ["StagedFolder", "read_json", "read_toml", "to_jsonable", "write_json"]
 
@@ -36,23 +37,9 @@ def to_jsonable(value: Any) -> Any:
 def write_json(path: str | Path, data: Any) -> Path:
     """Write ``data`` as JSON atomically: a reader sees the old file or the new one, never half of one."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     text = json.dumps(to_jsonable(data), indent=1, allow_nan=False)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.write("\n")
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual mode
-        os.replace(tmp, path)
-    except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
-        raise OSError(exc.errno, exc.strerror, str(path)) from None
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with replacing(path) as tmp:
+        tmp.write_text(text + "\n", encoding="utf-8")
     return path
 
 
