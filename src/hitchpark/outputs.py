@@ -4,6 +4,7 @@ Every command checks its output paths here before it does any work, so a bad one
 one-line :class:`~hitchpark.checks.InputError` whichever command was given it:
 
 * :func:`check_output_file`: a regular file to replace (or append to) or a new name;
+  :func:`check_output_files` several, each a different file;
 * :func:`check_output_folder`: a folder to write into, or a new one;
 * :func:`replacing`: write a file under a temporary name beside it, then swap it in whole.
 """
@@ -13,13 +14,13 @@ from __future__ import annotations
 import os
 import stat
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 
 from .checks import InputError
 
-__all__ = ["check_output_file", "check_output_folder", "replacing"]
+__all__ = ["check_output_file", "check_output_files", "check_output_folder", "replacing"]
 
 
 def _kind(mode: int) -> str:
@@ -85,6 +86,16 @@ def check_output_file(path: str | Path, flag: str, *, append: bool = False) -> P
             raise InputError(f"{flag} {path} is not writable")
     _check_can_create_in(path.parent, flag, path)
     return path
+
+
+def check_output_files(paths: Mapping[str, str | Path | None], append: Collection[str] = ()) -> dict[str, Path]:
+    """:func:`check_output_file` of each path given (None: not given) by flag, and no two the same file."""
+    files = {
+        flag: check_output_file(path, flag, append=flag in append) for flag, path in paths.items() if path is not None
+    }
+    if len({path.resolve() for path in files.values()}) < len(files):
+        raise InputError(f"{', '.join(files)} must name different files")
+    return files
 
 
 def check_output_folder(path: str | Path, flag: str) -> Path:
