@@ -204,7 +204,7 @@ def test_unwritable_json_target_is_a_clean_error(tmp_path, capsys):
     target = tmp_path / "folder"
     target.mkdir()
     assert run(simulate_argv(target)) == EXIT_BAD_INPUT
-    assert "cannot write" in one_error_line(capsys.readouterr().err)
+    assert "is a folder; it must be a file" in one_error_line(capsys.readouterr().err)  # refused before it runs
     assert target.is_dir() and not any(target.iterdir())
 
 

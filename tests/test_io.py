@@ -1,4 +1,4 @@
-"""Saving results (hitchpark.io)."""
+"""Saving results (hitchpark.io); output folders are tested in test_staging.py, output paths in test_outputs.py."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import stat
 import numpy as np
 import pytest
 
-from hitchpark.io import StagedFolder, read_json, to_jsonable, write_json
+from hitchpark.io import read_json, to_jsonable, write_json
 
 
 def test_to_jsonable_converts_numpy_and_non_finite_numbers():
@@ -52,40 +52,3 @@ def test_written_file_has_the_usual_mode(tmp_path):
     os.umask(umask)
     path = write_json(tmp_path / "out.json", {"a": 1})
     assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~umask
-
-
-def test_staged_folder_publishes_whole(tmp_path):
-    out = tmp_path / "out"
-    (out / "a").mkdir(parents=True)
-    (out / "a" / "old.txt").write_text("old")
-    (out / "keep.txt").write_text("keep")
-    with StagedFolder(out) as stage:
-        (stage / "a").mkdir()
-        (stage / "a" / "new.txt").write_text("new")
-        (stage / "summary.json").write_text("{}")
-    assert sorted(p.name for p in out.iterdir()) == ["a", "keep.txt", "summary.json"]
-    assert [p.name for p in (out / "a").iterdir()] == ["new.txt"]  # a folder is replaced, not merged
-
-
-def test_staged_folder_leaves_nothing_on_error(tmp_path):
-    out = tmp_path / "out"
-    with pytest.raises(RuntimeError), StagedFolder(out) as stage:
-        (stage / "half.json").write_text("{")
-        raise RuntimeError("boom")
-    assert not out.exists()  # created by the stage, removed again
-
-
-def test_staged_folder_clash_moves_nothing(tmp_path):
-    out = tmp_path / "out"
-    (out / "summary.json").mkdir(parents=True)  # a folder where a file goes
-    with pytest.raises(ValueError, match="in the way"), StagedFolder(out) as stage:
-        (stage / "scenario").mkdir()
-        (stage / "summary.json").write_text("{}")
-    assert sorted(p.name for p in out.iterdir()) == ["summary.json"]
-
-
-def test_staged_folder_target_is_a_file(tmp_path):
-    target = tmp_path / "file"
-    target.write_text("x")
-    with pytest.raises(ValueError, match="not a folder"):
-        StagedFolder(target)

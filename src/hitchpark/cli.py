@@ -96,8 +96,10 @@ def vehicle_from_args(args: argparse.Namespace, default: VehicleTrailer | None =
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
     from .io import write_json
+    from .outputs import check_output_file
     from .sim import simulate
 
+    path = check_output_file(args.json, "--json")
     vehicle = vehicle_from_args(args)
     start = parse_start(args.start)
     result = simulate(
@@ -108,35 +110,39 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         duration=_finite("--duration", args.duration),
         dt=_finite("--dt", args.dt),
     )
-    write_json(args.json, result.to_dict())
+    write_json(path, result.to_dict())
     tr = result.trajectory
     print(
         f"simulated {tr['t'][-1]:.3f} s ({result.reason}): trailer axle at "
         f"({tr['x_trailer'][-1]:.4f}, {tr['y_trailer'][-1]:.4f}) m, yaw {math.degrees(tr['yaw_trailer'][-1]):.3f} deg, "
-        f"hitch {math.degrees(tr['hitch'][-1]):.3f} deg -> {args.json}"
+        f"hitch {math.degrees(tr['hitch'][-1]):.3f} deg -> {path}"
     )
     return 0
+
+
+IK_STUDY_FILES = ("ik_study.json", "ik_study.png")  #: what ik-study owns in --out
 
 
 def _cmd_ik_study(args: argparse.Namespace) -> int:
     from .io import StagedFolder, write_json
     from .studies import TABLE2_VEHICLE, inverse_kinematics_study
 
-    staged = StagedFolder(args.out)
+    staged = StagedFolder(args.out, IK_STUDY_FILES, "--out")  # checks --out before any work
+    out = staged.target
     result = inverse_kinematics_study(TABLE2_VEHICLE, rear_speed=_finite("--speed", args.speed))
     with staged as stage:
-        write_json(stage / "ik_study.json", result.to_dict())
+        write_json(stage / IK_STUDY_FILES[0], result.to_dict())
         if not args.no_plots:
             from .viz.ik import plot_ik_study
 
-            plot_ik_study(result, stage / "ik_study.png")
+            plot_ik_study(result, stage / IK_STUDY_FILES[1])
     print(
         f"inverse kinematics study (Table 2): max |actual - desired virtual steer| = {result.max_steer_error:.3e} rad, "
         f"max trailer gap full vs trailer-only model = {result.max_pose_error:.3e} m"
     )
     if not args.no_plots:
-        print(f"figure: {args.out / 'ik_study.png'}")
-    print(f"data: {args.out / 'ik_study.json'}")
+        print(f"figure: {out / IK_STUDY_FILES[1]}")
+    print(f"data: {out / IK_STUDY_FILES[0]}")
     return 0
 
 
@@ -152,9 +158,11 @@ def _plant(args: argparse.Namespace) -> PlantSettings | None:
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from .app.report import reproduce, table5
+    from .outputs import check_output_folder
 
+    out = check_output_folder(args.out, "--out")
     plots = not args.no_plots
-    results, summary = reproduce(args.out, plots=plots, animation=plots, progress=print, plant=_plant(args))
+    results, summary = reproduce(out, plots=plots, animation=plots, progress=print, plant=_plant(args))
     print()
     print("Table 5 (trailer distance error, orientation error, final hitch angle):")
     print(table5(results))
@@ -165,10 +173,12 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 def _cmd_park(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from .app.report import save_maneuver, summary_entry, table5
+    from .app.report import MANEUVER_FILES, save_maneuver, summary_entry, table5
     from .io import StagedFolder
     from .maneuver.scenario import Scenario, load_scenario
 
+    staged = StagedFolder(args.out, MANEUVER_FILES, "--out")  # checks --out before any work
+    out = staged.target
     if args.scenario is None and args.start is None:
         raise UsageError("give --start X,Y,YAW_DEG,HITCH_DEG or --scenario FILE")
     sc = load_scenario(args.scenario) if args.scenario is not None else Scenario("park", parse_start(args.start))
@@ -181,14 +191,13 @@ def _cmd_park(args: argparse.Namespace) -> int:
         changes["plant"] = _plant(args)
     changes["vehicle"] = vehicle_from_args(args, default=sc.vehicle)
     sc = replace(sc, **changes)
-    staged = StagedFolder(args.out)  # an --out that is a file fails here, before the maneuver runs
 
     from .maneuver.process import park
 
     result = park(sc.vehicle, sc.start, sc.goal, sc.settings, name=sc.name, plant=sc.plant)  # checks the start
     plots = not args.no_plots
     with staged as stage:
-        files = {k: args.out / p.relative_to(stage) for k, p in save_maneuver(result, stage, plots, plots).items()}
+        files = {k: out / p.relative_to(stage) for k, p in save_maneuver(result, stage, plots, plots).items()}
     entry = summary_entry(result, "maneuver.json")
     outcome = (
         "parked"
@@ -207,10 +216,12 @@ def _cmd_park(args: argparse.Namespace) -> int:
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
-    from .app.report import render_maneuver
+    from .app.report import ANIMATION_FILE, FIGURE_FILES, render_maneuver
     from .io import StagedFolder, read_json
     from .maneuver.result import ManeuverResult
 
+    flag, out = ("--out", args.out) if args.out is not None else ("output folder", args.maneuver.parent)
+    staged = StagedFolder(out, (*FIGURE_FILES, ANIMATION_FILE), flag)  # checks it before any work
     try:
         data = read_json(args.maneuver)
     except OSError as exc:
@@ -223,11 +234,10 @@ def _cmd_plot(args: argparse.Namespace) -> int:
         result = ManeuverResult.from_dict(data)
     except InputError as exc:
         raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON: {exc}") from None
-    out = args.out if args.out is not None else args.maneuver.parent
-    with StagedFolder(out) as stage:
+    with staged as stage:
         files = render_maneuver(result, stage, plots=True, animation=not args.no_animation)
     for name, path in files.items():
-        print(f"{name}: {out / path.relative_to(stage)}")
+        print(f"{name}: {staged.target / path.relative_to(stage)}")
     return 0
 
 
@@ -236,7 +246,9 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from .app.records import format_summary
     from .app.sweep import build_config, run_sweep
     from .io import write_json
+    from .outputs import check_output_files
 
+    files = check_output_files({"--out": args.out, "--json": args.json, "--map": args.map}, append=["--out"])
     config = build_config(
         n=args.n,
         seed=args.seed,
@@ -246,33 +258,24 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         plant_file=args.plant,
     )
     executor = sweep_executor(args.workers, args.dask)
-    files = {
-        flag: path
-        for flag, path in (("--out", args.out), ("--json", args.json), ("--map", args.map))
-        if path is not None
-    }
-    if len({path.resolve() for path in files.values()}) < len(files):
-        raise UsageError(f"{', '.join(files)} must name different files")
-    for flag, path in files.items():
-        if path.is_dir():
-            raise UsageError(f"{flag} {path} is a folder; it must be a file")
-    outcome = run_sweep(config, args.out, executor, progress=True)
-    if args.json is not None:
-        write_json(args.json, outcome.summary)
-    if args.map is not None:
+    outcome = run_sweep(config, files["--out"], executor, progress=True)
+    if "--json" in files:
+        write_json(files["--json"], outcome.summary)
+    if "--map" in files:
         from .viz.sweep import plot_sweep_map
 
-        plot_sweep_map(outcome.records, args.map, config.vehicle, config.region, title=f"Sweep, seed {config.seed}")
+        title = f"Sweep, seed {config.seed}"
+        plot_sweep_map(outcome.records, files["--map"], config.vehicle, config.region, title=title)
     cut = ", a cut last line dropped" if outcome.dropped_cut_line else ""
     print(
         f"sweep of {config.n} starts (seed {config.seed}, region {config.region}): {outcome.ran} run now in "
-        f"{outcome.elapsed_s:.1f} s on {outcome.where}, {outcome.kept} kept from {args.out}{cut}"
+        f"{outcome.elapsed_s:.1f} s on {outcome.where}, {outcome.kept} kept from {files['--out']}{cut}"
     )
     print(format_summary(outcome.summary))
-    print(f"records: {args.out}")
-    for name, path in (("summary", args.json), ("map", args.map)):
-        if path is not None:
-            print(f"{name}: {path}")
+    print(f"records: {files['--out']}")
+    for name, flag in (("summary", "--json"), ("map", "--map")):
+        if flag in files:
+            print(f"{name}: {files[flag]}")
     return 0
 
 
@@ -295,7 +298,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", required=True, type=float, metavar="T", help="duration [s]")
     p.add_argument("--dt", type=float, default=0.1, metavar="S", help="sample time of the record [s] (default 0.1)")
     _add_vehicle_options(p)
-    p.add_argument("--json", required=True, type=Path, metavar="FILE", help="where to write the trajectory")
+    p.add_argument("--json", required=True, metavar="FILE", help="where to write the trajectory")
     p.set_defaults(func=_cmd_simulate)
 
     p = sub.add_parser(
@@ -304,7 +307,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Feed a desired virtual-steer profile through Eq. (45) into the full model (Table 2 vehicle), "
         "read it back with Eq. (46), and compare the trailer with the trailer-only model.",
     )
-    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="folder for ik_study.json and .png")
+    p.add_argument("--out", required=True, metavar="DIR", help="folder for ik_study.json and .png")
     p.add_argument("--speed", type=float, default=-1.0, metavar="V", help="rear-axle speed [m/s] (default -1)")
     p.add_argument("--no-plots", action="store_true", help="write the JSON only")
     p.set_defaults(func=_cmd_ik_study)
@@ -316,7 +319,7 @@ def build_parser() -> argparse.ArgumentParser:
         "random) with the 3-stage process, print Table 5, and write DIR/summary.json and, per scenario, "
         "DIR/NAME/maneuver.json with figures (Figs. 8-15) and an animation. Exit status 1 if any fails to park.",
     )
-    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     _add_plant_option(p, "instead of the paper's ideal plant")
     p.add_argument("--no-plots", action="store_true", help="write JSON only (no figures, no animation)")
     p.set_defaults(func=_cmd_reproduce)
@@ -333,7 +336,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scenario", type=Path, metavar="FILE.toml", help="scenario file; --start/--goal override it")
     _add_vehicle_options(p)
     _add_plant_option(p, "(default: the scenario's [plant], else the realistic car)")
-    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--no-plots", action="store_true", help="write maneuver.json only")
     p.set_defaults(func=_cmd_park)
 
@@ -343,7 +346,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Draw the figures and the animation of a saved maneuver without re-running it.",
     )
     p.add_argument("maneuver", type=Path, metavar="MANEUVER.json", help="a maneuver.json written by park/reproduce")
-    p.add_argument("--out", type=Path, metavar="DIR", help="output folder (default: beside the JSON)")
+    p.add_argument("--out", metavar="DIR", help="output folder (default: beside the JSON)")
     p.add_argument("--no-animation", action="store_true", help="figures only")
     p.set_defaults(func=_cmd_plot)
 
@@ -379,9 +382,9 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="local|ADDRESS",
         help="run on Dask: 'local' starts a LocalCluster of --workers processes, an address joins a scheduler",
     )
-    p.add_argument("--out", required=True, type=Path, metavar="FILE.jsonl", help="one JSON record per case")
-    p.add_argument("--json", type=Path, metavar="SUMMARY.json", help="write the summary here")
-    p.add_argument("--map", type=Path, metavar="FILE.png", help="draw the outcome over the start positions")
+    p.add_argument("--out", required=True, metavar="FILE.jsonl", help="one JSON record per case")
+    p.add_argument("--json", metavar="SUMMARY.json", help="write the summary here")
+    p.add_argument("--map", metavar="FILE.png", help="draw the outcome over the start positions")
     p.set_defaults(func=_cmd_sweep)
     return parser
 

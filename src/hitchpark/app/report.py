@@ -23,6 +23,9 @@ from ..maneuver.scenario import Scenario, builtin_scenarios
 from ..model.plant import PlantSettings
 
 __all__ = [
+    "ANIMATION_FILE",
+    "FIGURE_FILES",
+    "MANEUVER_FILES",
     "PAPER_TABLE5",
     "render_maneuver",
     "reproduce",
@@ -31,6 +34,13 @@ __all__ = [
     "summary_entry",
     "table5",
 ]
+
+#: The files of one maneuver: the figures (``plot_maneuver``), the animation, and all a saved maneuver
+#: may hold. A command owns these names in its output folder: it replaces them, and removes those it
+#: does not write this time (figures of an earlier run with figures).
+FIGURE_FILES = ("motion.png", "inputs.png", "nmpc.png")
+ANIMATION_FILE = "maneuver.gif"
+MANEUVER_FILES = ("maneuver.json", "trajectory.csv", *FIGURE_FILES, ANIMATION_FILE)
 
 #: Frames of a maneuver's GIF (a ~40 s maneuver plays at about 2.5x real time at 10 fps).
 ANIMATION_FRAMES = 150
@@ -69,7 +79,7 @@ def render_maneuver(
     if animation:
         from ..viz.maneuver import animate_maneuver
 
-        files["animation"] = animate_maneuver(result, folder / "maneuver.gif", max_frames=ANIMATION_FRAMES)
+        files["animation"] = animate_maneuver(result, folder / ANIMATION_FILE, max_frames=ANIMATION_FRAMES)
     return files
 
 
@@ -164,7 +174,9 @@ def reproduce(
     names = [sc.name for sc in scenarios]
     if len(set(names)) != len(names):
         raise InputError(f"scenario names must differ (each gets a folder), got {names}")
-    staged = StagedFolder(out)  # an --out that is a file fails here, before any work
+    # Publishing replaces these (removing those not written this time); all else in ``out`` stays.
+    owns = ["summary.json", *(f"{name}/{file}" for name in names for file in MANEUVER_FILES)]
+    staged = StagedFolder(out, owns)  # an --out that is a file fails here, before any work
     results, entries = [], []
     for sc in scenarios:
         result = run_scenario(sc, plant)

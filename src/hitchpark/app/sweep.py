@@ -29,6 +29,7 @@ from ..maneuver.result import ManeuverSettings
 from ..model.plant import PlantSettings, load_plant
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
+from ..outputs import check_output_file
 from .executors import Executor, make_executor
 from .records import CaseRecord, RecordWriter, Start, case_record, scan_records, summarize
 
@@ -302,7 +303,7 @@ def run_sweep(
     Returns the records of all n cases, old and new, and their summary (:func:`~.records.summarize`,
     plus the seed and region).
     """
-    out = Path(out)
+    out = check_output_file(out, "--out", append=True)  # a FIFO, a link, a device: refused, never read
     starts = config.starts()
     existing = scan_records(out, starts)
     records = dict(existing.records)

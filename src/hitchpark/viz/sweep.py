@@ -14,6 +14,7 @@ import numpy as np
 from ..control.nmpc import Pose
 from ..model.geometry import parking_space
 from ..model.vehicle import VehicleTrailer
+from ..outputs import replacing
 from . import use_headless_backend
 
 if TYPE_CHECKING:
@@ -127,8 +128,8 @@ def plot_sweep_map(
         ax.autoscale_view()
         ax.grid(True, lw=0.4, alpha=0.5)
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, title="outcome (starts)")
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=120)
+        with replacing(path) as tmp:  # whole or not at all; the format from the name asked for
+            fig.savefig(tmp, dpi=120, format=path.suffix[1:] or "png")
     finally:
         plt.close(fig)
     return path

@@ -1,0 +1,147 @@
+"""Where a command may write: the checks of every output path, and files replaced in one step.
+
+Every command checks its output paths here before it does any work, so a bad one gets the same
+one-line :class:`~hitchpark.checks.InputError` whichever command was given it:
+
+* :func:`check_output_file`: a regular file to replace (or append to) or a new name;
+  :func:`check_output_files` several, each a different file;
+* :func:`check_output_folder`: a folder to write into, or a new one;
+* :func:`replacing`: write a file under a temporary name beside it, then swap it in whole.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+import tempfile
+from collections.abc import Collection, Iterator, Mapping
+from contextlib import contextmanager
+from pathlib import Path
+
+from .checks import InputError
+
+__all__ = ["check_output_file", "check_output_files", "check_output_folder", "replacing"]
+
+
+def _kind(mode: int) -> str:
+    """What a file of this mode is, in words, for messages."""
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    if stat.S_ISLNK(mode):
+        return "a symbolic link"
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    return "a regular file" if stat.S_ISREG(mode) else "a special file"
+
+
+def _nonempty(path: str | Path, flag: str, what: str) -> Path:
+    if not os.fspath(path):  # Path("") would be the current folder
+        raise InputError(f"{flag} is empty; give {what}")
+    return Path(path)
+
+
+def _lstat(path: Path, flag: str) -> os.stat_result | None:
+    """The path's own status (a link not followed), None if there is nothing of that name."""
+    try:
+        return path.lstat()
+    except FileNotFoundError:
+        return None
+    except NotADirectoryError:
+        raise InputError(f"{flag} {path}: a part of the path is not a folder") from None
+    except OSError as exc:  # a component that is a file, a folder that cannot be searched
+        raise InputError(f"{flag} {path}: {exc.strerror or exc}") from None
+
+
+def _check_can_create_in(folder: Path, flag: str, path: Path) -> None:
+    """``path`` can be made inside ``folder``: its nearest existing ancestor is a folder this user may write."""
+    existing = folder
+    while not os.path.lexists(existing) and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise InputError(f"{flag} {path}: {existing} is not a folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise InputError(f"{flag} {path}: the folder {existing} is not writable")
+
+
+def check_output_file(path: str | Path, flag: str, *, append: bool = False) -> Path:
+    """The file ``flag`` names, as a ``Path``, if a command may write it; else an :class:`InputError`.
+
+    Allowed: a regular file (replaced whole; appended to if ``append``, then it must be writable)
+    or a new name whose folder exists or can be made, in a folder this user may write. Refused: an
+    empty name, a folder, a symbolic link (never written through), a FIFO, a device, a socket.
+    """
+    path = _nonempty(path, flag, "a file name")
+    st = _lstat(path, flag)
+    if st is not None:
+        if stat.S_ISDIR(st.st_mode):
+            raise InputError(f"{flag} {path} is a folder; it must be a file")
+        if not stat.S_ISREG(st.st_mode):
+            kind = _kind(st.st_mode)
+            raise InputError(f"{flag} {path} is {kind}, not a regular file; give a regular file or a new name")
+        if append and not os.access(path, os.W_OK):
+            raise InputError(f"{flag} {path} is not writable")
+    _check_can_create_in(path.parent, flag, path)
+    return path
+
+
+def check_output_files(paths: Mapping[str, str | Path | None], append: Collection[str] = ()) -> dict[str, Path]:
+    """:func:`check_output_file` of each path given (None: not given) by flag, and no two the same file."""
+    files = {
+        flag: check_output_file(path, flag, append=flag in append) for flag, path in paths.items() if path is not None
+    }
+    if len({path.resolve() for path in files.values()}) < len(files):
+        raise InputError(f"{', '.join(files)} must name different files")
+    return files
+
+
+def check_output_folder(path: str | Path, flag: str) -> Path:
+    """The folder ``flag`` names, as a ``Path``, if a command may write into it; else an :class:`InputError`.
+
+    Allowed: a folder this user may write, a symbolic link to one (the output goes into the folder it
+    points to), or a new name that can be made. Refused: an empty name (``.`` is the current folder),
+    anything else of that name (a file, a FIFO, a device, a link to no folder), a folder not writable.
+    """
+    path = _nonempty(path, flag, "a folder name (. for the current folder)")
+    st = _lstat(path, flag)
+    if st is None:
+        _check_can_create_in(path.parent, flag, path)
+        return path
+    if stat.S_ISLNK(st.st_mode) and not path.is_dir():
+        raise InputError(f"{flag} {path} is a symbolic link to no folder; give a folder")
+    if not stat.S_ISDIR(st.st_mode) and not stat.S_ISLNK(st.st_mode):
+        raise InputError(f"{flag} {path} exists and is not a folder: it is {_kind(st.st_mode)}")
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise InputError(f"{flag} {path} is a folder that is not writable")
+    return path
+
+
+@contextmanager
+def replacing(path: str | Path) -> Iterator[Path]:
+    """Write a file whole or not at all: ``with replacing(path) as tmp: ...write tmp...``.
+
+    ``tmp`` is a new empty file beside ``path`` (same folder, so the swap is one rename, and with
+    ``path``'s suffix, so writers that read the format from it still do). On success it replaces
+    ``path`` in one step, with the mode a new file gets under the umask; on any error it is
+    removed and ``path`` is left as it was. An ``OSError`` names ``path``.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}", dir=path.parent)
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        yield tmp
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual mode
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise OSError(exc.errno, exc.strerror, str(path)) from None
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
