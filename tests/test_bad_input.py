@@ -1,7 +1,7 @@
 """Every class of bad input, one case each: refused on one line with exit status 2 (CLI) or ``InputError`` (API).
 
-The README's list of bad-input classes is this file's ``CLI_CASES``, ``FILE_CASES``, ``JSON_CASES`` and
-``API_CASES``. A command-line case also checks that nothing was written. Generated inputs of the
+The README's list of bad-input classes is this file's ``CLI_CASES``, ``OUTPUT_CASES``, ``FILE_CASES``,
+``JSON_CASES`` and ``API_CASES``. A command-line case also checks that nothing was written. Generated inputs of the
 same kinds are in ``tests/fuzz`` (``python benchmarks/fuzz_inputs.py`` runs them at scale).
 """
 
@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -91,7 +92,48 @@ CLI_CASES: list[tuple[str, list[str], str]] = [
     ("not an integer", ["sweep", "--n", "2.5", "--seed", "1", "--out", "{out}/s.jsonl"], "invalid int"),
     ("same file for two outputs", ["sweep", "--n", "2", "--seed", "1", "--out", "{out}/s.jsonl",
                                    "--json", "{out}/s.jsonl"], "different files"),
+    ("empty output path", ["park", "--start", "10,3,0,0", "--out", ""], "--out is empty"),
+    ("map of an unknown image format", ["sweep", "--n", "2", "--seed", "1", "--out", "{out}/s.jsonl",
+                                        "--map", "{out}/m.txt"], "must end in .png"),
 ]
+
+
+# --- output paths that are not a file or folder a command may write ----------------------------------------
+
+
+def _fifo(path: Path) -> None:
+    os.mkfifo(path)
+
+
+def _link(path: Path) -> None:
+    target = path.parent / "elsewhere.json"
+    target.write_text("{}", encoding="utf-8")
+    path.symlink_to(target)
+
+
+def _file(path: Path) -> None:
+    path.write_text("mine", encoding="utf-8")
+
+
+OUTPUT_CASES: list[tuple[str, Callable[[Path], None], list[str], str]] = [
+    ("FIFO as an output file", _fifo, [*sim()[:-2], "--json", "{path}"], "FIFO"),
+    ("symbolic link as an output file", _link, [*sim()[:-2], "--json", "{path}"], "symbolic link"),
+    ("file where an output folder belongs", _file, ["park", "--start", "10,3,0,0", "--out", "{path}"], "folder"),
+    ("folder where an output file belongs", os.mkdir, [*sim()[:-2], "--json", "{path}"], "folder"),
+]
+
+
+@pytest.mark.parametrize(("make", "argv", "match"), [c[1:] for c in OUTPUT_CASES], ids=[c[0] for c in OUTPUT_CASES])
+def test_bad_output_paths(tmp_path, capsys, make, argv, match):
+    path = tmp_path / "target"
+    make(path)
+    before = {p: (p.lstat().st_mode, p.read_bytes() if p.is_file() and not p.is_symlink() else b"")
+              for p in tmp_path.rglob("*")}
+    code, err = run_cli([a.replace("{path}", str(path)) for a in argv], capsys)
+    assert_refused(code, err, match)
+    after = {p: (p.lstat().st_mode, p.read_bytes() if p.is_file() and not p.is_symlink() else b"")
+             for p in tmp_path.rglob("*")}
+    assert after == before  # nothing replaced, nothing written through a link
 
 
 @pytest.mark.parametrize(("argv", "match"), [c[1:] for c in CLI_CASES], ids=[c[0] for c in CLI_CASES])
@@ -236,5 +278,5 @@ def test_bad_api_calls(call, match):
 
 
 def test_there_are_at_least_forty_classes():
-    names = [c[0] for c in (*CLI_CASES, *FILE_CASES, *JSON_CASES, *API_CASES)]
+    names = [c[0] for c in (*CLI_CASES, *OUTPUT_CASES, *FILE_CASES, *JSON_CASES, *API_CASES)]
     assert len(names) == len(set(names)) >= 40

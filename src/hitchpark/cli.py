@@ -246,9 +246,11 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from .app.records import format_summary
     from .app.sweep import build_config, run_sweep
     from .io import write_json
-    from .outputs import check_output_files
+    from .outputs import check_figure_name, check_output_files
 
     files = check_output_files({"--out": args.out, "--json": args.json, "--map": args.map}, append=["--out"])
+    if "--map" in files:
+        check_figure_name(files["--map"], "--map")
     config = build_config(
         n=args.n,
         seed=args.seed,

@@ -20,7 +20,25 @@ from pathlib import Path
 
 from .checks import InputError
 
-__all__ = ["check_output_file", "check_output_files", "check_output_folder", "replacing"]
+__all__ = [
+    "FIGURE_SUFFIXES",
+    "check_figure_name",
+    "check_output_file",
+    "check_output_files",
+    "check_output_folder",
+    "replacing",
+]
+
+#: The image formats a figure file may have, by its suffix (matplotlib writes each of them).
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def check_figure_name(path: str | Path, flag: str) -> Path:
+    """A figure's file name must end in one of :data:`FIGURE_SUFFIXES` (checked before any work)."""
+    path = Path(path)
+    if path.suffix.lower() not in FIGURE_SUFFIXES:
+        raise InputError(f"{flag} {path} must end in {', '.join(FIGURE_SUFFIXES)} (the image format)")
+    return path
 
 
 def _kind(mode: int) -> str:

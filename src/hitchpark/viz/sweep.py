@@ -14,7 +14,7 @@ import numpy as np
 from ..control.nmpc import Pose
 from ..model.geometry import parking_space
 from ..model.vehicle import VehicleTrailer
-from ..outputs import replacing
+from ..outputs import check_figure_name, replacing
 from . import use_headless_backend
 
 if TYPE_CHECKING:
@@ -45,18 +45,18 @@ def plot_sweep_map(
     title: str = "",
     tick_m: float = 0.6,
 ) -> Path:
-    """Draw every start of a sweep at its trailer-axle position and write a PNG to ``path``.
+    """Draw every start of a sweep at its trailer-axle position and write an image (PNG, PDF, SVG) to ``path``.
 
     Parked starts are green dots, each failure reason has its own colour and marker (the legend
     counts them); a short tick of ``tick_m`` metres from each start points along its trailer heading.
     The parking space of ``vehicle`` (default Table 4) is drawn at the goal (origin, heading +x),
     and ``region`` (where the starts were drawn), if given, as a dashed box.
     """
+    path = check_figure_name(path, "map")
     use_headless_backend()
     import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
 
-    path = Path(path)
     vehicle = vehicle or VehicleTrailer()
     fig, ax = plt.subplots(figsize=(9.5, 8.0), layout="constrained")
     try:
