@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import os
 import socket
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
+from hitchpark import outputs
 from hitchpark.outputs import check_output_file, check_output_folder, replacing
 
 
@@ -163,3 +166,24 @@ def test_replacing_is_whole_or_nothing(tmp_path):
         tmp.write_text("new")
     assert path.read_text() == "new"
     assert [p.name for p in tmp_path.iterdir()] == ["map.png"]
+
+
+def test_temporaries_of_ended_processes_are_removed_by_the_next_writer(tmp_path):
+    path = tmp_path / "summary.json"
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        live_start = outputs._start_time(sleeper.pid) or "0"
+        host = outputs._host()
+        dead = tmp_path / f".summary.json.hitchpark-{host}-999999999-1.abc.tmp.json"  # no such process
+        live = tmp_path / f".summary.json.hitchpark-{host}-{sleeper.pid}-{live_start}.abc.tmp.json"
+        other_file = tmp_path / f".other.json.hitchpark-{host}-999999999-1.abc.tmp.json"
+        for p in (dead, live, other_file):
+            p.write_text("half")
+        with replacing(path) as tmp:
+            tmp.write_text("{}")
+        assert path.read_text() == "{}"
+        assert not dead.exists()  # a kill while writing: its half file goes
+        assert live.exists() and other_file.exists()  # a live writer's, and another file's, stay
+    finally:
+        sleeper.kill()
+        sleeper.wait()

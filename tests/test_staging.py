@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 import hitchpark
-from hitchpark import staging
+from hitchpark import outputs
 from hitchpark.staging import STAGING_PREFIX, StagedFolder, clean_stale_staging
 
 SRC = str(Path(hitchpark.__file__).resolve().parents[1])
@@ -43,7 +43,7 @@ def snapshot(root: Path) -> dict[str, str | bytes]:
 
 
 def staging_name(pid: int, start: str = "0") -> str:
-    return f"{STAGING_PREFIX}{staging._host()}-{pid}-{start}-abc123"
+    return f"{STAGING_PREFIX}{outputs._host()}-{pid}-{start}-abc123"
 
 
 def ended_pid() -> int:
@@ -264,10 +264,10 @@ def test_only_staging_folders_of_ended_processes_are_removed(tmp_path):
     (out / "user.txt").write_text("the user's")
     sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     try:
-        start = staging._start_time(sleeper.pid) or "0"
+        start = outputs._start_time(sleeper.pid) or "0"
         keep = [
             staging_name(sleeper.pid, start),  # a live process
-            staging_name(os.getpid(), staging._start_time(os.getpid()) or "0"),  # this one
+            staging_name(os.getpid(), outputs._start_time(os.getpid()) or "0"),  # this one
             f"{STAGING_PREFIX}0badc0de-{ended_pid()}-0-abc123",  # another machine's
             f"{STAGING_PREFIX}k3jd8x",  # a name of no known owner
         ]

@@ -11,7 +11,10 @@ one-line :class:`~hitchpark.checks.InputError` whichever command was given it:
 
 from __future__ import annotations
 
+import hashlib
 import os
+import re
+import socket
 import stat
 import tempfile
 from collections.abc import Collection, Iterator, Mapping
@@ -26,6 +29,8 @@ __all__ = [
     "check_output_file",
     "check_output_files",
     "check_output_folder",
+    "owner_alive",
+    "owner_tag",
     "replacing",
 ]
 
@@ -137,6 +142,55 @@ def check_output_folder(path: str | Path, flag: str) -> Path:
     return path
 
 
+def _host() -> str:
+    return hashlib.sha1(socket.gethostname().encode(), usedforsecurity=False).hexdigest()[:8]
+
+
+def _start_time(pid: int) -> str | None:
+    """When process ``pid`` started (clock ticks since boot, Linux), None where that cannot be read."""
+    try:
+        text = Path(f"/proc/{pid}/stat").read_text(encoding="ascii", errors="replace")
+    except OSError:
+        return None
+    fields = text.rsplit(")", 1)[-1].split()  # after the command name, which may hold spaces
+    return fields[19] if len(fields) > 19 and fields[19].isdigit() else None
+
+
+def owner_alive(host: str, pid: int, start: str) -> bool:
+    """Whether the process that named a staging folder or a temporary file may still run: only a sure "no" is False."""
+    if host != _host() or os.name != "posix":  # another machine's process, or no signal 0 to ask with
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # it exists, but is another user's
+        pass
+    now = _start_time(pid)
+    return start == "0" or now is None or now == start  # another start time: the PID was reused
+
+
+def owner_tag() -> str:
+    """``HOST-PID-START`` of this process, for names of what it writes aside (a staging folder, a temporary file)."""
+    return f"{_host()}-{os.getpid()}-{_start_time(os.getpid()) or '0'}"
+
+
+_TMP_OWNER = re.compile(r"\.hitchpark-([0-9a-f]{8})-([1-9][0-9]*)-([0-9]+)\.")
+
+
+def _clean_stale_temporaries(path: Path) -> None:
+    """Remove the temporary files of ``path`` left by processes that have ended (a kill while writing)."""
+    try:
+        names = os.listdir(path.parent)
+    except OSError:
+        return
+    head = f".{path.name}.hitchpark-"
+    for name in names:
+        match = _TMP_OWNER.match(name[len(path.name) + 1 :]) if name.startswith(head) else None
+        if match and not owner_alive(match[1], int(match[2]), match[3]):
+            (path.parent / name).unlink(missing_ok=True)
+
+
 @contextmanager
 def replacing(path: str | Path) -> Iterator[Path]:
     """Write a file whole or not at all: ``with replacing(path) as tmp: ...write tmp...``.
@@ -144,11 +198,15 @@ def replacing(path: str | Path) -> Iterator[Path]:
     ``tmp`` is a new empty file beside ``path`` (same folder, so the swap is one rename, and with
     ``path``'s suffix, so writers that read the format from it still do). On success it replaces
     ``path`` in one step, with the mode a new file gets under the umask; on any error it is
-    removed and ``path`` is left as it was. An ``OSError`` names ``path``.
+    removed and ``path`` is left as it was. An ``OSError`` names ``path``. The temporary name
+    carries this process's :func:`owner_tag`: one left by a killed process is removed by the
+    next writer of ``path``.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}", dir=path.parent)
+    _clean_stale_temporaries(path)
+    prefix = f".{path.name}.hitchpark-{owner_tag()}."
+    fd, name = tempfile.mkstemp(prefix=prefix, suffix=f".tmp{path.suffix}", dir=path.parent)
     os.close(fd)
     tmp = Path(name)
     try:

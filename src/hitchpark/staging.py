@@ -16,53 +16,23 @@ Staging folders of live processes, of other hosts, and of unknown names are neve
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import re
 import shutil
-import socket
 import tempfile
 from collections.abc import Iterable
 from pathlib import Path, PurePosixPath
 from typing import Any
 
 from .checks import InputError
-from .outputs import check_output_folder
+from .outputs import check_output_folder, owner_alive, owner_tag
 
 __all__ = ["STAGING_PREFIX", "StagedFolder", "clean_stale_staging"]
 
 STAGING_PREFIX = ".hitchpark-staging-"
 _NAME = re.compile(re.escape(STAGING_PREFIX) + r"([0-9a-f]{8})-([1-9][0-9]*)-([0-9]+)-")
 _NEW, _OLD, _PLAN, _DONE = "new", "old", "plan.json", "done"
-
-
-def _host() -> str:
-    return hashlib.sha1(socket.gethostname().encode(), usedforsecurity=False).hexdigest()[:8]
-
-
-def _start_time(pid: int) -> str | None:
-    """When process ``pid`` started (clock ticks since boot, Linux), None where that cannot be read."""
-    try:
-        text = Path(f"/proc/{pid}/stat").read_text(encoding="ascii", errors="replace")
-    except OSError:
-        return None
-    fields = text.rsplit(")", 1)[-1].split()  # after the command name, which may hold spaces
-    return fields[19] if len(fields) > 19 and fields[19].isdigit() else None
-
-
-def _alive(host: str, pid: int, start: str) -> bool:
-    """Whether the process that named a staging folder may still run: only a sure "no" is False."""
-    if host != _host() or os.name != "posix":  # another machine's process, or no signal 0 to ask with
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # it exists, but is another user's
-        pass
-    now = _start_time(pid)
-    return start == "0" or now is None or now == start  # another start time: the PID was reused
 
 
 def _entries(root: Path) -> tuple[list[str], list[str]]:
@@ -114,7 +84,7 @@ def clean_stale_staging(target: str | Path) -> list[Path]:
         return removed
     for name in names:
         match = _NAME.match(name)
-        if match is None or _alive(match[1], int(match[2]), match[3]):
+        if match is None or owner_alive(match[1], int(match[2]), match[3]):
             continue
         staging = Path(target) / name
         try:
@@ -156,8 +126,7 @@ class StagedFolder:
         self._created = not self.target.exists()
         self.target.mkdir(parents=True, exist_ok=True)
         clean_stale_staging(self.target)
-        start = _start_time(os.getpid()) or "0"
-        prefix = f"{STAGING_PREFIX}{_host()}-{os.getpid()}-{start}-"
+        prefix = f"{STAGING_PREFIX}{owner_tag()}-"
         self._staging = Path(tempfile.mkdtemp(prefix=prefix, dir=self.target))
         self.path = self._staging / _NEW
         self.path.mkdir()
