@@ -44,12 +44,14 @@ from .vehicle import VehicleTrailer, check_vehicle
 
 __all__ = [
     "BODIES",
+    "MAX_STEP_M",
     "Contact",
     "body_shapes",
     "clearance",
     "closest",
     "collides",
     "swept_clearance",
+    "swept_contact",
 ]
 
 #: The bodies checked, as :func:`body_shapes` names them.
@@ -57,6 +59,9 @@ BODIES = ("vehicle", "trailer", "drawbar", "tow_bar")
 
 #: How messages name a body.
 BODY_NAMES = {"vehicle": "the vehicle", "trailer": "the trailer", "drawbar": "the drawbar", "tow_bar": "the tow bar"}
+
+#: Default largest movement of a body point between the sub-samples of :func:`swept_clearance` [m].
+MAX_STEP_M = 0.05
 
 #: Most sub-samples one call of :func:`swept_clearance` checks (a 10-minute maneuver at 1 m/s and
 #: 5 cm sub-steps needs about 50 000): beyond it the states jump, they are not a motion.
@@ -148,7 +153,7 @@ def closest(vehicle: VehicleTrailer, scene: Scene, x_t: Any, y_t: Any, yaw_t: An
 
 
 def swept_clearance(
-    vehicle: VehicleTrailer, scene: Scene, states: Any, max_step_m: float = 0.05
+    vehicle: VehicleTrailer, scene: Scene, states: Any, max_step_m: float = MAX_STEP_M
 ) -> tuple[float, int]:
     """A lower bound on the clearance [m] over the continuous motion through ``states``, and where it is least.
 
@@ -168,29 +173,50 @@ def swept_clearance(
     -------
     (float, int)
         The bound, floored at 0 (so 0 also when a pass came within half a sub-step), ``math.inf`` for
-        an empty scene; and the row of ``states`` that begins the step where it is least (the first
-        such; ``n - 1`` if it is the last state). See the module's description for the bound.
+        an empty scene; and the row of ``states`` that begins the step where it is least (``n - 1`` if
+        it is the last state): of sub-samples with equal bounds (several zeros, say), the one with the
+        least exact clearance, the first of those (so a collision's first touch, where there is one).
+        See the module's description for the bound.
     """
+    best, row, _ = _sweep(vehicle, scene, states, max_step_m)
+    return best, row
+
+
+def swept_contact(
+    vehicle: VehicleTrailer, scene: Scene, states: Any, max_step_m: float = MAX_STEP_M
+) -> tuple[float, int, Contact | None]:
+    """:func:`swept_clearance`, and the nearest pair (:func:`closest`) at the sub-sample where the bound is least.
+
+    The contact is ``None`` for an empty scene. Its distance is that sub-sample's exact clearance, which
+    the bound undercuts by at most ``max_step_m / 2``.
+    """
+    best, row, config = _sweep(vehicle, scene, states, max_step_m)
+    return best, row, None if config is None else closest(vehicle, scene, *config)
+
+
+# --- internals ------------------------------------------------------------------------------------------
+
+
+def _sweep(vehicle: Any, scene: Any, states: Any, max_step_m: Any) -> tuple[float, int, np.ndarray | None]:
+    """The bound, its row and the sub-sample configuration where it is least (None for an empty scene)."""
     vehicle, scene = _checked(vehicle, scene)
     states = check_values("states", states, ndim=2)
     if states.shape[1] != 4 or len(states) < 1:
         raise InputError(f"states must be an (n, 4) array of x, y, yaw, hitch with n >= 1, got shape {states.shape}")
     max_step_m = check_range("max_step_m", max_step_m, 0.0, 10.0, low_open=True, unit="m")
     if scene.is_empty:
-        return math.inf, 0
+        return math.inf, 0, None
     configs, rows, half_steps = _subsamples(vehicle, states, max_step_m)
     checker = _Checker(vehicle, scene)
-    best, best_at = math.inf, 0
+    best, best_exact, best_at, where = math.inf, math.inf, 0, configs[0]
     for first in range(0, len(configs), _CHUNK):
         part = slice(first, first + _CHUNK)
-        bound = np.maximum(checker.clearances(configs[part]) - half_steps[part], 0.0)
-        k = int(np.argmin(bound))
-        if bound[k] < best:
-            best, best_at = float(bound[k]), int(rows[part][k])
-    return best, best_at
-
-
-# --- internals ------------------------------------------------------------------------------------------
+        exact = checker.clearances(configs[part])
+        bound = np.maximum(exact - half_steps[part], 0.0)
+        k = int(np.lexsort((exact, bound))[0])  # least bound; of equal bounds (zeros), the least exact clearance
+        if (bound[k], exact[k]) < (best, best_exact):
+            best, best_exact, best_at, where = float(bound[k]), float(exact[k]), int(rows[part][k]), configs[part][k]
+    return best, best_at, where
 
 
 def _checked(vehicle: Any, scene: Any) -> tuple[VehicleTrailer, Scene]:
