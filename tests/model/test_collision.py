@@ -16,6 +16,7 @@ from hitchpark.model import VehicleTrailer
 from hitchpark.model.collision import (
     _body_geometries,
     _Checker,
+    _subsamples,
     body_shapes,
     clearance,
     closest,
@@ -216,6 +217,20 @@ def test_swept_clearance_is_a_lower_bound_within_half_a_step(rows, max_step):
     dense = float(_Checker(V, SCENE).clearances(fine).min())
     assert bound <= dense + 1e-9
     assert bound >= dense - max_step / 2 - 0.01  # the dense sampling itself may miss up to 5 mm
+
+
+@settings(max_examples=60)
+@given(motions, st.sampled_from([0.02, 0.1, 0.5]))
+def test_pruned_sweep_equals_checking_every_pair(rows, max_step):
+    """The sweep skips obstacles whose boxes are too far to matter; checking every pair gives the same answer."""
+    states = np.array(rows)
+    configs, row_of, half = _subsamples(V, states, max_step)
+    exact = _Checker(V, SCENE).clearances(configs)  # every body against every obstacle (nearest in the tree)
+    bound = np.maximum(exact - half, 0.0)
+    k = int(np.lexsort((exact, bound))[0])
+    least, row = swept_clearance(V, SCENE, states, max_step_m=max_step)
+    assert least == pytest.approx(bound[k], abs=1e-12)
+    assert row == row_of[k]
 
 
 BAD = [

@@ -211,8 +211,7 @@ def _sweep(vehicle: Any, scene: Any, states: Any, max_step_m: Any) -> tuple[floa
     best, best_exact, best_at, where = math.inf, math.inf, 0, configs[0]
     for first in range(0, len(configs), _CHUNK):
         part = slice(first, first + _CHUNK)
-        exact = checker.clearances(configs[part])
-        bound = np.maximum(exact - half_steps[part], 0.0)
+        bound, exact = checker.bounds(configs[part], half_steps[part])
         k = int(np.lexsort((exact, bound))[0])  # least bound; of equal bounds (zeros), the least exact clearance
         if (bound[k], exact[k]) < (best, best_exact):
             best, best_exact, best_at, where = float(bound[k]), float(exact[k]), int(rows[part][k]), configs[part][k]
@@ -288,7 +287,9 @@ class _Checker:
 
     def __init__(self, vehicle: VehicleTrailer, scene: Scene):
         self.vehicle = vehicle
-        self.tree = shapely.STRtree([shapely.Polygon(o.polygon) for o in scene.obstacles]) if scene.obstacles else None
+        self.obstacles = np.array([shapely.Polygon(o.polygon) for o in scene.obstacles], dtype=object)
+        self.boxes = shapely.bounds(self.obstacles).reshape(-1, 4)  # xmin, ymin, xmax, ymax of each
+        self.tree = shapely.STRtree(self.obstacles) if scene.obstacles else None
         self.area = shapely.Polygon(scene.area.boundary) if scene.area is not None else None
         if self.area is not None:
             shapely.prepare(self.area)
@@ -306,6 +307,45 @@ class _Checker:
             inside = shapely.within(flat, self.area)
             nearest = np.minimum(nearest, np.where(inside, shapely.distance(flat, self.ring), 0.0))
         return nearest.reshape(bodies.shape).min(axis=1)
+
+    def bounds(self, configs: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For a sweep: ``max(clearance - half, 0)`` and the clearance of each configuration, where it matters.
+
+        Exact for every configuration whose bound could be the least of ``configs``; the others may come
+        out larger (up to inf) than they are. Pruned by bounding boxes: a body's distance to an obstacle is
+        computed only when the distance between their boxes, less the half step, does not exceed a bound
+        already reached (the distance to the obstacle whose box is nearest, or the area's).
+        """
+        bodies = _body_geometries(self.vehicle, configs)  # (m, b)
+        flat = bodies.ravel()
+        slack = np.repeat(half, bodies.shape[1])  # the half step of each body's configuration
+        near = np.full(len(flat), math.inf)
+        if self.area is not None:
+            near = self._area_distances(flat)
+        if len(self.obstacles):
+            boxes = shapely.bounds(flat)
+            gap_x = np.maximum(self.boxes[None, :, 0] - boxes[:, None, 2], boxes[:, None, 0] - self.boxes[None, :, 2])
+            gap_y = np.maximum(self.boxes[None, :, 1] - boxes[:, None, 3], boxes[:, None, 1] - self.boxes[None, :, 3])
+            low = np.hypot(np.maximum(gap_x, 0.0), np.maximum(gap_y, 0.0))  # (n, k) lower bounds
+            first = np.argmin(low, axis=1)
+            near = np.minimum(near, shapely.distance(flat, self.obstacles[first]))
+            reached = max(float(np.min(near - slack)), 0.0)  # the least bound is at most this
+            low[np.arange(len(flat)), first] = math.inf  # computed already
+            body, obstacle = np.nonzero(low - slack[:, None] <= reached)
+            if len(body):
+                np.minimum.at(near, body, shapely.distance(flat[body], self.obstacles[obstacle]))
+        exact = near.reshape(bodies.shape).min(axis=1)
+        return np.maximum(exact - half, 0.0), exact
+
+    def _area_distances(self, flat: np.ndarray) -> np.ndarray:
+        """Distance of each body to the area's boundary, 0 if it is not wholly inside the area.
+
+        A body clear of the boundary lies wholly inside or wholly outside: one of its points decides.
+        """
+        distance = shapely.distance(flat, self.ring)
+        coords, index = shapely.get_coordinates(flat, return_index=True)
+        x, y = coords[np.searchsorted(index, np.arange(len(flat)))].T
+        return np.where(shapely.contains_xy(self.area, x, y), distance, 0.0)
 
 
 def _rectangles(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, back: float, front: float, half: float) -> np.ndarray:
