@@ -5,6 +5,11 @@ speed is zero; if the trailer is not parked, a forward stage repositions and ano
 reverse stage follows, up to ``max_stages``. Every stage starts and ends at standstill: the
 car brakes to a stop, then the steer is set to what the next stage wants before it moves
 (those samples are recorded and their time counts). Success is judged on the true state.
+
+Obstacles and an area (a :class:`~hitchpark.model.scene.Scene`) are checked once, at the end, on the
+whole true motion of the real car (:func:`~hitchpark.model.collision.swept_clearance`): a maneuver that
+came closer to them than ``success.min_clearance_m`` (or touched them, or left the area) fails with
+the outcome ``collision``. The controllers do not see the scene: they do not avoid obstacles.
 """
 
 from __future__ import annotations
@@ -18,9 +23,11 @@ import numpy as np
 
 from ..checks import InputError, check_instance, check_text
 from ..control.nmpc import FullNMPC, NMPCStep, TrailerNMPC
+from ..model.collision import MAX_STEP_M, swept_contact
 from ..model.inverse import virtual_steer_from_front
 from ..model.kinematics import trailer_speed_from_rear_speed
 from ..model.plant import Command, Measurement, Plant, PlantSettings
+from ..model.scene import Scene
 from ..model.state import Pose, State, check_goal, check_state
 from ..model.vehicle import VehicleTrailer, check_vehicle
 from ..sim import STATE_COLUMNS, Trajectory, state_columns
@@ -208,6 +215,7 @@ def park(
     name: str = "",
     controller: TrailerNMPC | FullNMPC | None = None,
     plant: PlantSettings | None = None,
+    scene: Scene | None = None,
 ) -> ManeuverResult:
     """Park the trailer at ``goal`` from ``start``: reverse, and forward and reverse again as needed (Fig. 7).
 
@@ -227,11 +235,15 @@ def park(
     plant : PlantSettings
         The car driven (default: the realistic car, :class:`PlantSettings`); its lengths may differ
         from ``vehicle``'s.
+    scene : Scene
+        Obstacles and an area, world frame (default: none). Not avoided: checked on the true motion at
+        the end, against ``settings.success.min_clearance_m`` (outcome ``collision`` if closer).
 
     Returns
     -------
     ManeuverResult
-        ``success``, ``reason`` (an :class:`Outcome` value) and ``detail``, the stages and the trajectory.
+        ``success``, ``reason`` (an :class:`Outcome` value) and ``detail``, the stages, the trajectory
+        and the scene.
     """
     check_vehicle(vehicle).require_hitch_offset()
     check_state(vehicle, start)
@@ -241,6 +253,8 @@ def park(
     plant = PlantSettings() if plant is None else plant
     check_instance("plant", plant, PlantSettings, "hitchpark.PlantSettings(...)")
     check_text("name", name, max_length=200)
+    scene = Scene() if scene is None else scene
+    check_instance("scene", scene, Scene, "hitchpark.model.Scene(obstacles, area)")
     if controller is not None:
         check_instance("controller", controller, (TrailerNMPC, FullNMPC))
     if controller is not None and (controller.vehicle, controller.settings) != (vehicle, settings.nmpc):
@@ -297,6 +311,22 @@ def park(
     success = outcome is Outcome.PARKED and bool(within_limits) and car.t <= crit.max_time + 1e-9
     if outcome is Outcome.PARKED and not success:
         outcome = Outcome.LIMITS_EXCEEDED
-    return ManeuverResult(
-        vehicle, start, goal, settings, success, outcome.value, tuple(stages), traj, name, plant, loop.detail
+    detail = loop.detail
+    swept = None
+    if not scene.is_empty:
+        least, row, contact = swept_contact(real, scene, traj.states())
+        swept = least, row
+        if least == 0.0 or least < crit.min_clearance_m:
+            near = f": {contact.describe()} near t = {traj['t'][row]:.1f} s" if contact is not None else ""
+            ended = f"; its own outcome: {outcome.value}" + (f" ({detail})" if detail else "")
+            detail = f"clearance {least:.3g} m, less than min_clearance_m {crit.min_clearance_m:g} m{near}{ended}"
+            if least == 0.0:
+                within = f"{100 * MAX_STEP_M / 2:g} cm"
+                detail = f"clearance 0 (touching, leaving the area, or passing within {within}){near}{ended}"
+            success, outcome = False, Outcome.COLLISION
+    result = ManeuverResult(
+        vehicle, start, goal, settings, success, outcome.value, tuple(stages), traj, name, plant, detail, scene
     )
+    if swept is not None:
+        result.__dict__["swept"] = swept  # the cached property's value: computed once per maneuver
+    return result

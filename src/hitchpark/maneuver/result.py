@@ -1,7 +1,9 @@
 """What a maneuver yields: its outcome, its stages, its trajectory; and the settings that shaped it.
 
 One schema: :meth:`ManeuverResult.to_dict` writes ``maneuver.json`` and
-:meth:`ManeuverResult.from_dict` reads it back and checks it.
+:meth:`ManeuverResult.from_dict` reads it back and checks it. The scene of a maneuver is saved as
+``"obstacles"`` (a list of ``{"name", "polygon"}``) and ``"area"`` (``{"boundary"}`` or null), as
+:meth:`~hitchpark.model.scene.Scene.to_dict` writes them; files without them load with an empty scene.
 """
 
 from __future__ import annotations
@@ -9,6 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -31,7 +34,9 @@ from ..checks import (
 )
 from ..control.ocp import NMPCSettings
 from ..control.pure_pursuit import PurePursuitSettings
+from ..model.collision import swept_clearance
 from ..model.plant import PlantSettings
+from ..model.scene import Scene
 from ..model.state import Pose, State, check_state, to_goal_frame
 from ..model.vehicle import VehicleTrailer, vehicle_from_dict
 from ..sim import BASE_COLUMNS, Trajectory
@@ -66,9 +71,9 @@ MANEUVER_COLUMNS = (
 FINITE_COLUMNS = (*BASE_COLUMNS, "front_steer_cmd", "rear_speed_cmd", "hitch_measured", "stage")
 
 #: Keys of ``maneuver.json``: those read back, those written for readers only (derived from the rest).
-_SAVED_KEYS = ("name", "vehicle", "start", "goal", "plant", "success", "reason", "detail", "stages", "settings",
-               "trajectory")
-_DERIVED_KEYS = ("duration_s", "max_abs_front_steer_deg", "max_abs_hitch_deg")
+_SAVED_KEYS = ("name", "vehicle", "start", "goal", "obstacles", "area", "plant", "success", "reason", "detail",
+               "stages", "settings", "trajectory")
+_DERIVED_KEYS = ("duration_s", "max_abs_front_steer_deg", "max_abs_hitch_deg", "min_clearance_m", "collision")
 _REQUIRED_KEYS = ("vehicle", "start", "goal", "success", "reason", "stages", "trajectory")
 
 
@@ -82,6 +87,7 @@ class Outcome(StrEnum):
     TIMEOUT = "timeout"
     MAX_STAGES = "max_stages"
     LIMITS_EXCEEDED = "limits exceeded"
+    COLLISION = "collision"  # a body touched an obstacle, left the area, or came closer than min_clearance_m
 
 
 #: Longest maneuver time accepted [s]: a day; a parking maneuver takes a minute.
@@ -93,7 +99,9 @@ class SuccessCriteria:
     """Success, defined once: final errors within these, limits never exceeded, within stages and time.
 
     distance [m] (trailer axle to goal), orientation [rad] (trailer yaw error),
-    hitch [rad] (final |hitch|), max_stages, max_time [s] of maneuver time.
+    hitch [rad] (final |hitch|), max_stages, max_time [s] of maneuver time, min_clearance_m [m]: the
+    least clearance between the bodies and the scene's obstacles and area boundary over the whole motion
+    (swept, :func:`~hitchpark.model.collision.swept_clearance`); it does not apply to an empty scene.
     """
 
     distance: float = checked(0.05, Real(0.0, 100.0, low_open=True, unit="m"))
@@ -101,6 +109,7 @@ class SuccessCriteria:
     hitch: float = checked(math.radians(3.0), Real(0.0, math.pi / 2, low_open=True, unit="rad"))
     max_stages: int = checked(7, Integer(1, 1000))
     max_time: float = checked(300.0, Real(0.0, MAX_MANEUVER_TIME, low_open=True, unit="s (a day)"))
+    min_clearance_m: float = checked(0.2, Real(0.0, 5.0, unit="m"))
 
     def __post_init__(self) -> None:
         check_fields(self, "success.")
@@ -172,7 +181,7 @@ class ManeuverResult:
 
     ``vehicle`` is the controller's model; ``plant`` the car it drove (``plant_vehicle`` its
     real lengths and limits). ``reason`` is the outcome's value; ``detail`` says more (the
-    solver's status).
+    solver's status). ``scene`` holds the obstacles and area it moved among (empty by default).
     """
 
     vehicle: VehicleTrailer
@@ -186,6 +195,7 @@ class ManeuverResult:
     name: str = ""
     plant: PlantSettings = field(default_factory=PlantSettings)
     detail: str = ""
+    scene: Scene = field(default_factory=Scene)
 
     @property
     def outcome(self) -> Outcome:
@@ -207,6 +217,28 @@ class ManeuverResult:
     def duration(self) -> float:
         return float(self.trajectory["t"][-1])
 
+    @cached_property
+    def swept(self) -> tuple[float, int]:
+        """(least clearance [m], row where it is least) of the true motion: see :attr:`min_clearance_m`."""
+        return swept_clearance(self.plant_vehicle, self.scene, self.trajectory.states())
+
+    @property
+    def min_clearance_m(self) -> float | None:
+        """Least clearance [m] between the real car's bodies and the scene over the whole motion; None if no scene.
+
+        Swept along the true trajectory (columns ``x_trailer``, ``y_trailer``, ``yaw_trailer``, ``hitch``)
+        with the plant's lengths (:attr:`plant_vehicle`): a lower bound, low by at most
+        ``MAX_STEP_M / 2`` = 2.5 cm (:func:`~hitchpark.model.collision.swept_clearance`); 0 when a body touched
+        an obstacle or left the area. ``None`` (null in ``maneuver.json``) for an empty scene, where there
+        is nothing to hit.
+        """
+        return None if self.scene.is_empty else self.swept[0]
+
+    @property
+    def collision(self) -> bool:
+        """True if a body touched or overlapped an obstacle or left the area (:attr:`min_clearance_m` is 0)."""
+        return self.min_clearance_m == 0.0
+
     def stage_rows(self, index: int) -> slice:
         """Rows of stage ``index``, including the state it ended in."""
         st = self.stages[index]
@@ -218,6 +250,7 @@ class ManeuverResult:
             "vehicle": self.vehicle.to_dict(),
             "start": self.start.to_dict(),
             "goal": self.goal.to_dict(),
+            **self.scene.to_dict(),
             "plant": {**self.plant.to_dict(), "vehicle": self.plant_vehicle.to_dict()},
             "success": self.success,
             "reason": self.reason,
@@ -225,6 +258,8 @@ class ManeuverResult:
             "duration_s": self.duration,
             "max_abs_front_steer_deg": self.max_abs_front_steer_deg,
             "max_abs_hitch_deg": self.max_abs_hitch_deg,
+            "min_clearance_m": self.min_clearance_m,
+            "collision": self.collision,
             "stages": [s.to_dict() for s in self.stages],
             "settings": self.settings.to_dict(),
             "trajectory": self.trajectory.to_dict(),
@@ -251,6 +286,7 @@ class ManeuverResult:
             raise InputError(f"stages must be a list of stage tables, got {shown(stages)}")
         start = State.from_dict(data["start"])
         check_state(vehicle, start)
+        scene = Scene.from_dict({k: data[k] for k in ("obstacles", "area") if k in data})
         result = cls(
             vehicle=vehicle,
             start=start,
@@ -263,6 +299,7 @@ class ManeuverResult:
             name=check_text("name", data.get("name", ""), max_length=200),
             plant=plant,
             detail=detail,
+            scene=scene,
         )
         result._check_layout()
         return result

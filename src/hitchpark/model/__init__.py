@@ -1,6 +1,8 @@
 """Vehicle-trailer model: parameters, states and poses, kinematics (Section 2), inverse kinematics
-(Section 3), and the plant (the simulated car with actuators and sensors)."""
+(Section 3), the plant (the simulated car with actuators and sensors), and the scene around it
+(obstacles, the area to stay inside, exact clearance)."""
 
+from .collision import clearance, swept_clearance
 from .geometry import body_outlines
 from .integrate import plant_function, rk4, step_full
 from .inverse import (
@@ -25,6 +27,7 @@ from .kinematics import (
     trailer_speed_from_rear_speed,
 )
 from .plant import IDEAL, Command, Measurement, Plant, PlantSettings, load_plant
+from .scene import Area, Obstacle, Scene
 from .state import Pose, State, check_pose, check_state, to_goal_frame, wrap_angle
 from .vehicle import VehicleTrailer, load_vehicle, vehicle_from_dict
 
@@ -34,17 +37,21 @@ __all__ = [
     "IDEAL",
     "TRAILER_INPUT",
     "TRAILER_STATE",
+    "Area",
     "Command",
     "Measurement",
+    "Obstacle",
     "Plant",
     "PlantSettings",
     "Pose",
+    "Scene",
     "State",
     "VehicleTrailer",
     "actual_virtual_steer",
     "body_outlines",
     "check_pose",
     "check_state",
+    "clearance",
     "front_steer_from_virtual",
     "full_rates",
     "full_rhs",
@@ -56,6 +63,7 @@ __all__ = [
     "rear_speed_from_trailer_speed",
     "rk4",
     "step_full",
+    "swept_clearance",
     "to_goal_frame",
     "trailer_rhs",
     "trailer_speed_from_rear_speed",

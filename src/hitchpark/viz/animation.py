@@ -21,7 +21,7 @@ from .common import (
     outcome,
     stage_color,
 )
-from .rig import draw_goal, rig_outlines
+from .rig import draw_goal, draw_scene, near_scene, rig_outlines
 
 if TYPE_CHECKING:
     from ..maneuver.result import ManeuverResult
@@ -46,7 +46,8 @@ def animate_maneuver(
 ) -> Path:
     """Write an animated GIF of the whole maneuver.
 
-    Each frame shows the parking space and goal heading, the bodies (with steered
+    Each frame shows the parking space and goal heading, the scene's obstacles and area
+    boundary (near the motion), the bodies (with steered
     front wheels), the trailer-axle path so far coloured by stage, the rear-axle path
     so far, and a header with time, stage, rear-axle speed, front steer, hitch angle
     and the trailer's distance and orientation errors. The rows are subsampled evenly
@@ -100,9 +101,11 @@ def animate_maneuver(
     for bodies, _ in geometry.values():
         ext.add(bodies["vehicle"])
         ext.add(bodies["trailer"])
+    near_scene(result.scene, ext)
     height = float(np.clip(0.85 * width * ext.aspect + 1.5, 3.2, 6.5))
 
     fig, ax = plt.subplots(figsize=(width, height), dpi=dpi, constrained_layout=True)
+    draw_scene(ax, result.scene, ext, margin=0.6)
     draw_goal(ax, result)
     ext.apply(ax, margin=0.6)
     ax.set_aspect("equal", adjustable="datalim")

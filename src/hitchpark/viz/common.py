@@ -18,10 +18,13 @@ if TYPE_CHECKING:
     from ..maneuver.result import ManeuverResult
 
 __all__ = [
+    "AREA_EDGE",
     "DF",
     "DPSI",
     "EPSI",
     "LIMIT_COLOR",
+    "OBSTACLE_EDGE",
+    "OBSTACLE_FACE",
     "SPACE_EDGE",
     "SPACE_FACE",
     "STAGE_COLORS",
@@ -31,6 +34,7 @@ __all__ = [
     "VEHICLE_FACE",
     "WHEEL_COLOR",
     "Extent",
+    "clearance_text",
     "final_errors",
     "fmt_len",
     "headline",
@@ -51,6 +55,8 @@ TRAILER_FACE, TRAILER_EDGE = "#fdd9b5", "#7f2704"
 SPACE_FACE, SPACE_EDGE = "#ececec", "#7a7a7a"
 WHEEL_COLOR = "#303030"
 LIMIT_COLOR = "#b22222"
+OBSTACLE_FACE, OBSTACLE_EDGE = "#a6a6a6", "#4d4d4d"
+AREA_EDGE = "#4d4d4d"
 
 # Mathtext symbols used in labels.
 DF, DPSI, EPSI = r"$\delta_f$", r"$\Delta\psi$", r"$e_\psi$"
@@ -84,11 +90,18 @@ def final_errors(result: ManeuverResult) -> tuple[float, float, float]:
 def headline(result: ManeuverResult) -> str:
     d, e, h = final_errors(result)
     name = result.name or "maneuver"
+    clearance = result.min_clearance_m
+    among = "" if clearance is None else f";  least clearance {clearance_text(clearance)}"
     return (
         f"{name}: {outcome(result)}\n"
         f"final trailer error: distance {fmt_len(d)}, orientation {e:.3g}°;  final hitch {h:.3g}°;  "
-        f"max |{DF}| {result.max_abs_front_steer_deg:.1f}°, max |{DPSI}| {result.max_abs_hitch_deg:.1f}°"
+        f"max |{DF}| {result.max_abs_front_steer_deg:.1f}°, max |{DPSI}| {result.max_abs_hitch_deg:.1f}°{among}"
     )
+
+
+def clearance_text(metres: float) -> str:
+    """A clearance for a label: centimetres, or 0 as a collision."""
+    return "0 (collision)" if metres == 0.0 else f"{100 * metres:.1f} cm" if metres < 1.0 else f"{metres:.2f} m"
 
 
 def fmt_len(metres: float) -> str:

@@ -3,7 +3,8 @@
 ``plot_maneuver`` writes three PNG files:
 
 * ``motion.png`` (Figs. 8/10/12/14 a-d): one panel per stage with the trailer-axle
-  and rear-axle paths and the bodies at several instants, plus the overall trajectory;
+  and rear-axle paths and the bodies at several instants, plus the overall trajectory; with a
+  scene, its obstacles and area boundary and, where the bodies came closest to it, a mark;
 * ``inputs.png`` (Figs. 8e-f, drawn by :mod:`.inputs`): front steer and its rate, rear-axle
   speed and hitch angle against time, commanded, actual and measured where the trajectory has them;
 * ``nmpc.png`` (Figs. 9/11/13/15): per reverse stage, the NMPC cost, the virtual
@@ -21,11 +22,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..checks import InputError
+from ..model.collision import swept_contact
 from ..model.geometry import parking_space, to_goal_frame
 from ..model.inverse import virtual_steer_bounds
 from . import use_headless_backend
 from .common import (
+    AREA_EDGE,
     LIMIT_COLOR,
+    OBSTACLE_EDGE,
+    OBSTACLE_FACE,
     SPACE_EDGE,
     SPACE_FACE,
     TRAILER_EDGE,
@@ -41,7 +46,7 @@ from .common import (
     step_series,
 )
 from .inputs import inputs_figure
-from .rig import draw_goal, draw_paths, draw_rig, rig_outlines
+from .rig import draw_contact, draw_goal, draw_paths, draw_rig, draw_scene, near_scene, rig_outlines
 
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
@@ -85,6 +90,12 @@ def motion_figure(result: ManeuverResult, snapshot_every: float = 2.0) -> Figure
     tr = result.trajectory
     n_stages = len(result.stages)
     panels = _panel_rows(result, snapshot_every)
+    scene = result.scene
+    # Where the real car came closest to the scene (the sub-sample of the swept check), marked in the panels
+    # whose rows hold it.
+    closest_row, contact = -1, None
+    if not scene.is_empty:
+        _, closest_row, contact = swept_contact(result.plant_vehicle, scene, tr.states())
     n_panels = len(panels)
     ncols = 2 if n_panels <= 4 else 3
     nrows = math.ceil(n_panels / ncols)
@@ -100,6 +111,9 @@ def motion_figure(result: ManeuverResult, snapshot_every: float = 2.0) -> Figure
             bodies, _ = rig_outlines(result, row)
             ext.add(bodies["vehicle"])
             ext.add(bodies["trailer"])
+        if contact is not None and _holds(rows, closest_row):
+            ext.add(contact.points)
+        near_scene(scene, ext)
         extents.append(ext)
     width = 6.0
     aspect = float(np.median([e.aspect for e in extents]))
@@ -109,8 +123,9 @@ def motion_figure(result: ManeuverResult, snapshot_every: float = 2.0) -> Figure
     )
     flat = axes.ravel()
     letters = "abcdefghij"
-    for p, ((_rows, light, bold), ext) in enumerate(zip(panels, extents, strict=True)):
+    for p, ((rows, light, bold), ext) in enumerate(zip(panels, extents, strict=True)):
         ax = flat[p]
+        draw_scene(ax, scene, ext)
         draw_goal(ax, result)
         for i in range(n_stages) if p == n_stages else [p]:
             draw_paths(ax, result, result.stage_rows(i), stage_color(i))
@@ -118,6 +133,9 @@ def motion_figure(result: ManeuverResult, snapshot_every: float = 2.0) -> Figure
             draw_rig(ax, result, row, bold=False)
         for j, row in enumerate(bold):
             draw_rig(ax, result, row, bold=True, zorder=3 + 0.5 * j)
+        if contact is not None and result.min_clearance_m is not None and _holds(rows, closest_row):
+            draw_rig(ax, result, closest_row, bold=False)
+            draw_contact(ax, contact, result.min_clearance_m)
         first, last = bold[0], bold[-1]
         start_color = stage_color(p if p < n_stages else 0)
         end_color = stage_color(p if p < n_stages else n_stages - 1)
@@ -165,15 +183,28 @@ def motion_figure(result: ManeuverResult, snapshot_every: float = 2.0) -> Figure
         ),
         Patch(fc=SPACE_FACE, ec=SPACE_EDGE, ls="--", label="parking space, goal heading →"),
     ]
+    if scene.obstacles:
+        handles.append(Patch(fc=OBSTACLE_FACE, ec=OBSTACLE_EDGE, label="obstacle"))
+    if scene.area is not None:
+        handles.append(Line2D([], [], color=AREA_EDGE, lw=1.2, ls="--", label="area boundary"))
+    if contact is not None:
+        handles.append(
+            Line2D([], [], color=LIMIT_COLOR, lw=1.6, marker="x", mew=1.6, label="least clearance (real car)")
+        )
     fig.legend(
         handles=handles,
         loc="outside lower center",
-        ncol=min(6, math.ceil(len(handles) / 2)),
+        ncol=min(6, math.ceil(len(handles) / (2 if len(handles) <= 12 else 3))),
         fontsize=8.5,
         frameon=False,
     )
     fig.suptitle(headline(result), fontsize=11)
     return fig
+
+
+def _holds(rows: slice, row: int) -> bool:
+    """``row`` lies within the panel's ``rows``."""
+    return (rows.start or 0) <= row < (rows.stop if rows.stop is not None else row + 1)
 
 
 def nmpc_figure(result: ManeuverResult) -> Figure:

@@ -1,4 +1,4 @@
-"""Drawing the scene in the plane: the car and trailer at a row, the parking space and goal, the paths.
+"""Drawing the plane: the car and trailer at a row, the parking space and goal, the paths, the obstacles.
 
 The outlines themselves come from :mod:`hitchpark.model.geometry` (plain NumPy); this module
 only turns them into matplotlib artists. Matplotlib is imported inside the functions.
@@ -9,9 +9,16 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
+import shapely
 
+from ..model.collision import Contact
 from ..model.geometry import along, body_outlines, parking_space, wheel_outlines
+from ..model.scene import Scene
 from .common import (
+    AREA_EDGE,
+    LIMIT_COLOR,
+    OBSTACLE_EDGE,
+    OBSTACLE_FACE,
     SPACE_EDGE,
     SPACE_FACE,
     TRAILER_EDGE,
@@ -19,6 +26,8 @@ from .common import (
     VEHICLE_EDGE,
     VEHICLE_FACE,
     WHEEL_COLOR,
+    Extent,
+    clearance_text,
 )
 
 if TYPE_CHECKING:
@@ -26,7 +35,10 @@ if TYPE_CHECKING:
 
     from ..maneuver.result import ManeuverResult
 
-__all__ = ["draw_goal", "draw_paths", "draw_rig", "rig_outlines"]
+__all__ = ["draw_contact", "draw_goal", "draw_paths", "draw_rig", "draw_scene", "near_scene", "rig_outlines"]
+
+#: How far past the drawn motion the parts of obstacles and of the area boundary widen a panel [m].
+SCENE_REACH = 3.0
 
 
 def rig_outlines(result: ManeuverResult, row: int) -> tuple[dict[str, np.ndarray], np.ndarray]:
@@ -120,4 +132,67 @@ def draw_paths(ax: Axes, result: ManeuverResult, rows: slice, color: str) -> Non
         ls=(0, (4, 2)),
         alpha=0.9,
         zorder=5,
+    )
+
+
+def _box(ext: Extent, grow: float) -> shapely.Geometry | None:
+    """The extent's box grown by ``grow`` [m]; None while the extent is empty."""
+    if not np.all(np.isfinite(ext.low)):
+        return None
+    return shapely.box(*(ext.low - grow), *(ext.high + grow))
+
+
+def near_scene(scene: Scene, ext: Extent, reach: float = SCENE_REACH) -> None:
+    """Widen ``ext`` to the parts of the obstacles and of the area boundary within ``reach`` [m] of it.
+
+    A scene may be far larger than the motion (a whole street): only what lies near the motion is framed.
+    """
+    box = _box(ext, reach)
+    if box is None:
+        return
+    shapes = [shapely.Polygon(o.polygon) for o in scene.obstacles]
+    if scene.area is not None:
+        shapes.append(shapely.LinearRing(scene.area.boundary))
+    for part in shapely.intersection(shapes, box):
+        ext.add(shapely.get_coordinates(part))
+
+
+def draw_scene(ax: Axes, scene: Scene, ext: Extent, margin: float = 0.8) -> None:
+    """The obstacles (filled grey, named in small type) and the area boundary (dashed), under everything else.
+
+    Drawn without widening the axes' data limits (a scene may reach far past the motion): frame them
+    with :func:`near_scene`. A name sits inside the part of its obstacle within ``ext`` grown by ``margin``.
+    """
+    from matplotlib.patches import Polygon
+
+    if scene.area is not None:
+        ax.add_artist(Polygon(scene.area.boundary, closed=True, fill=False, ec=AREA_EDGE, lw=1.2, ls="--", zorder=1.2))
+    view = _box(ext, margin)
+    for obstacle in scene.obstacles:
+        ax.add_artist(
+            Polygon(obstacle.polygon, closed=True, fc=OBSTACLE_FACE, ec=OBSTACLE_EDGE, lw=1.0, alpha=0.9, zorder=1.5)
+        )
+        if not obstacle.name or view is None:
+            continue
+        seen = shapely.intersection(shapely.Polygon(obstacle.polygon), view)
+        if seen.is_empty:
+            continue
+        spot = shapely.point_on_surface(seen)
+        ax.text(spot.x, spot.y, obstacle.name, fontsize=7, color="#1a1a1a", ha="center", va="center",
+                zorder=1.6, clip_on=True)
+
+
+def draw_contact(ax: Axes, contact: Contact, clearance: float) -> None:
+    """Mark where the bodies came closest to the scene: a red segment between the nearest points, labelled."""
+    (bx, by), (ox, oy) = contact.points
+    ax.plot([bx, ox], [by, oy], color=LIMIT_COLOR, lw=1.6, marker="x", ms=6, mew=1.6, zorder=7, clip_on=True)
+    ax.annotate(
+        f"least clearance {clearance_text(clearance)}",
+        xy=(bx, by),
+        xytext=(6, 6),
+        textcoords="offset points",
+        fontsize=7.5,
+        color=LIMIT_COLOR,
+        zorder=7.1,
+        annotation_clip=True,
     )

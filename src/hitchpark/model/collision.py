@@ -1,0 +1,378 @@
+"""Exact clearance between the bodies and a :class:`~.scene.Scene`, at one configuration and along a motion.
+
+The bodies are those of :func:`~.geometry.body_outlines`: the vehicle and trailer rectangles, the
+drawbar (trailer body front to the hitch) and the tow bar (vehicle body rear to the hitch, when the
+hitch lies behind the body). Distances are Shapely's, exact to rounding, between the bodies and each
+obstacle polygon, and between the bodies and the area's boundary.
+
+The clearance of a configuration is the smallest of these distances [m]: 0 when a body touches or
+overlaps an obstacle, and 0 when a body is not wholly inside the area (touching its boundary or
+outside it). A scene with no obstacle and no area has clearance ``math.inf`` everywhere.
+
+Along a motion (:func:`swept_clearance`) the configuration between two recorded samples is taken
+linear in (x, y, yaw, hitch); at dt = 0.1 s the kinematics hardly bend within a step. Each step is cut
+into sub-steps so short that no point of any body moves more than ``max_step_m`` from one sub-sample
+to the next; then any instant lies within half a sub-step of a sub-sample, so the clearance at any
+instant is at least the clearance at the nearest sub-sample less half that sub-step's largest body
+movement. :func:`swept_clearance` returns this lower bound, floored at 0: a motion that passes through
+an obstacle between samples is caught, and a pass closer than half a sub-step (at most
+``max_step_m / 2``) also counts as touching. The movement bound of a step: a point of the trailer
+(body, drawbar) at distance ``r_t`` from the trailer axle moves at most ``|dc| + |dyaw| r_t``, a
+point of the vehicle (body, tow bar) at distance ``r_v`` from the hitch at most
+``|dc| + |dyaw| L_T + |dyaw + dhitch| r_v``, with ``dc`` the trailer-axle displacement and ``r_t``,
+``r_v`` the largest such distances of the bodies.
+
+Vectorised with Shapely 2: the bodies of all sub-samples are made at once (:func:`shapely.polygons`,
+:func:`shapely.linestrings`), the nearest obstacle of each comes from an :class:`shapely.STRtree`
+query, the area from :func:`shapely.within` and :func:`shapely.distance` on arrays.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import shapely
+
+from ..checks import InputError, check_instance, check_number, check_range, check_values
+from .geometry import body_outlines
+from .scene import Scene
+from .state import wrap_angle
+from .vehicle import VehicleTrailer, check_vehicle
+
+__all__ = [
+    "BODIES",
+    "MAX_STEP_M",
+    "Contact",
+    "body_shapes",
+    "clearance",
+    "closest",
+    "collides",
+    "swept_clearance",
+    "swept_contact",
+]
+
+#: The bodies checked, as :func:`body_shapes` names them.
+BODIES = ("vehicle", "trailer", "drawbar", "tow_bar")
+
+#: How messages name a body.
+BODY_NAMES = {"vehicle": "the vehicle", "trailer": "the trailer", "drawbar": "the drawbar", "tow_bar": "the tow bar"}
+
+#: Default largest movement of a body point between the sub-samples of :func:`swept_clearance` [m].
+MAX_STEP_M = 0.05
+
+#: Most sub-samples one call of :func:`swept_clearance` checks (a 10-minute maneuver at 1 m/s and
+#: 5 cm sub-steps needs about 50 000): beyond it the states jump, they are not a motion.
+MAX_SUBSAMPLES = 5_000_000
+
+#: Sub-samples whose bodies are made and checked at once (bounds the memory of a call).
+_CHUNK = 20_000
+
+
+@dataclass(frozen=True)
+class Contact:
+    """The nearest pair of one configuration: which body, what (an obstacle or the area boundary), how far.
+
+    ``distance`` [m] is the clearance (0 when touching, overlapping, or outside the area); ``body`` one of
+    :data:`BODIES`; ``other`` names the obstacle as messages do (``obstacles[2] ("parked car")``) or is
+    ``"area boundary"``; ``points`` is a (2, 2) array: the nearest point of the body, then of the other.
+    """
+
+    distance: float
+    body: str
+    other: str
+    points: np.ndarray
+
+    def describe(self) -> str:
+        """One phrase: ``the trailer is 0.12 m from obstacles[1] ("fence")``, or that it touches or leaves."""
+        body = BODY_NAMES[self.body]
+        if self.other == "area boundary" and self.distance == 0.0:
+            return f"{body} reaches or leaves the area boundary"
+        if self.distance == 0.0:
+            return f"{body} touches {self.other}"
+        return f"{body} is {self.distance:.3g} m from {self.other}"
+
+
+def body_shapes(vehicle: VehicleTrailer, state: Any) -> dict[str, shapely.Geometry]:
+    """The bodies at ``state`` = (x_trailer [m], y_trailer [m], yaw_trailer [rad], hitch [rad]), world frame.
+
+    ``"vehicle"`` and ``"trailer"``: Shapely polygons; ``"drawbar"`` and ``"tow_bar"``: line strings
+    (the tow bar only when it has a length, i.e. the hitch lies behind the vehicle body). From
+    :func:`~.geometry.body_outlines`.
+    """
+    x, y, yaw, hitch = _config(state)
+    outlines = body_outlines(check_vehicle(vehicle), x, y, yaw, hitch)
+    shapes: dict[str, shapely.Geometry] = {
+        "vehicle": shapely.Polygon(outlines["vehicle"]),
+        "trailer": shapely.Polygon(outlines["trailer"]),
+        "drawbar": shapely.LineString(outlines["drawbar"]),
+    }
+    if _has_tow_bar(vehicle):
+        shapes["tow_bar"] = shapely.LineString(outlines["tow_bar"])
+    return shapes
+
+
+def clearance(vehicle: VehicleTrailer, scene: Scene, x_t: Any, y_t: Any, yaw_t: Any, hitch: Any) -> float:
+    """Smallest distance [m] from any body to any obstacle and to the area's boundary, at one configuration.
+
+    0 if a body touches or overlaps an obstacle or is not wholly inside the area; ``math.inf`` for an
+    empty scene. ``x_t``, ``y_t`` [m], ``yaw_t`` [rad]: the trailer-axle pose; ``hitch`` [rad].
+    """
+    vehicle, scene = _checked(vehicle, scene)
+    config = np.array([_config((x_t, y_t, yaw_t, hitch))])
+    return float(_Checker(vehicle, scene).clearances(config)[0])
+
+
+def collides(vehicle: VehicleTrailer, scene: Scene, x_t: Any, y_t: Any, yaw_t: Any, hitch: Any) -> bool:
+    """True if a body touches or overlaps an obstacle, or is not wholly inside the area (clearance 0)."""
+    return clearance(vehicle, scene, x_t, y_t, yaw_t, hitch) == 0.0
+
+
+def closest(vehicle: VehicleTrailer, scene: Scene, x_t: Any, y_t: Any, yaw_t: Any, hitch: Any) -> Contact | None:
+    """The nearest body and obstacle (or area boundary) at one configuration; ``None`` for an empty scene.
+
+    Its ``distance`` equals :func:`clearance`; a body outside the area has distance 0 to the boundary.
+    """
+    vehicle, scene = _checked(vehicle, scene)
+    shapes = body_shapes(vehicle, (x_t, y_t, yaw_t, hitch))
+    best: Contact | None = None
+    for body, shape in shapes.items():
+        candidates = [(scene.describe(i), shapely.Polygon(o.polygon)) for i, o in enumerate(scene.obstacles)]
+        for other, geometry in candidates:
+            distance = float(shapely.distance(shape, geometry))
+            if best is None or distance < best.distance:
+                best = Contact(distance, body, other, _nearest_points(shape, geometry))
+        if scene.area is not None:
+            area = shapely.Polygon(scene.area.boundary)
+            distance = float(shapely.distance(shape, area.exterior)) if shapely.within(shape, area) else 0.0
+            if best is None or distance < best.distance:
+                best = Contact(distance, body, "area boundary", _nearest_points(shape, area.exterior))
+    return best
+
+
+def swept_clearance(
+    vehicle: VehicleTrailer, scene: Scene, states: Any, max_step_m: float = MAX_STEP_M
+) -> tuple[float, int]:
+    """A lower bound on the clearance [m] over the continuous motion through ``states``, and where it is least.
+
+    Parameters
+    ----------
+    vehicle : VehicleTrailer
+        The lengths and bodies of the combination that moved (a plant's real car).
+    scene : Scene
+        Obstacles and area, world frame.
+    states : array_like, shape (n, 4)
+        The recorded configurations, rows (x_trailer [m], y_trailer [m], yaw_trailer [rad], hitch [rad]).
+    max_step_m : float
+        Largest movement of any body point between sub-samples [m], in (0, 10]. The bound returned is
+        low by at most ``max_step_m / 2``.
+
+    Returns
+    -------
+    (float, int)
+        The bound, floored at 0 (so 0 also when a pass came within half a sub-step), ``math.inf`` for
+        an empty scene; and the row of ``states`` that begins the step where it is least (``n - 1`` if
+        it is the last state): of sub-samples with equal bounds (several zeros, say), the one with the
+        least exact clearance, the first of those (so a collision's first touch, where there is one).
+        See the module's description for the bound.
+    """
+    best, row, _ = _sweep(vehicle, scene, states, max_step_m)
+    return best, row
+
+
+def swept_contact(
+    vehicle: VehicleTrailer, scene: Scene, states: Any, max_step_m: float = MAX_STEP_M
+) -> tuple[float, int, Contact | None]:
+    """:func:`swept_clearance`, and the nearest pair (:func:`closest`) at the sub-sample where the bound is least.
+
+    The contact is ``None`` for an empty scene. Its distance is that sub-sample's exact clearance, which
+    the bound undercuts by at most ``max_step_m / 2``.
+    """
+    best, row, config = _sweep(vehicle, scene, states, max_step_m)
+    return best, row, None if config is None else closest(vehicle, scene, *config)
+
+
+# --- internals ------------------------------------------------------------------------------------------
+
+
+def _sweep(vehicle: Any, scene: Any, states: Any, max_step_m: Any) -> tuple[float, int, np.ndarray | None]:
+    """The bound, its row and the sub-sample configuration where it is least (None for an empty scene)."""
+    vehicle, scene = _checked(vehicle, scene)
+    states = check_values("states", states, ndim=2)
+    if states.shape[1] != 4 or len(states) < 1:
+        raise InputError(f"states must be an (n, 4) array of x, y, yaw, hitch with n >= 1, got shape {states.shape}")
+    max_step_m = check_range("max_step_m", max_step_m, 0.0, 10.0, low_open=True, unit="m")
+    if scene.is_empty:
+        return math.inf, 0, None
+    configs, rows, half_steps = _subsamples(vehicle, states, max_step_m)
+    checker = _Checker(vehicle, scene)
+    best, best_exact, best_at, where = math.inf, math.inf, 0, configs[0]
+    for first in range(0, len(configs), _CHUNK):
+        part = slice(first, first + _CHUNK)
+        bound, exact = checker.bounds(configs[part], half_steps[part])
+        k = int(np.lexsort((exact, bound))[0])  # least bound; of equal bounds (zeros), the least exact clearance
+        if (bound[k], exact[k]) < (best, best_exact):
+            best, best_exact, best_at, where = float(bound[k]), float(exact[k]), int(rows[part][k]), configs[part][k]
+    return best, best_at, where
+
+
+def _checked(vehicle: Any, scene: Any) -> tuple[VehicleTrailer, Scene]:
+    check_vehicle(vehicle)
+    check_instance("scene", scene, Scene, "hitchpark.model.scene.Scene(obstacles, area)")
+    return vehicle, scene
+
+
+def _config(state: Any) -> tuple[float, float, float, float]:
+    values = tuple(state)
+    if len(values) != 4:
+        raise InputError(f"a configuration must be x, y, yaw, hitch (4 numbers), got {len(values)}")
+    x, y, yaw, hitch = (check_number(name, v) for name, v in zip(("x", "y", "yaw", "hitch"), values, strict=True))
+    return x, y, yaw, hitch
+
+
+def _has_tow_bar(vehicle: VehicleTrailer) -> bool:
+    """The tow bar sticks out behind the vehicle body (the hitch lies behind its rear)."""
+    return vehicle.hitch_offset > vehicle.rear_overhang
+
+
+def _nearest_points(a: shapely.Geometry, b: shapely.Geometry) -> np.ndarray:
+    return np.asarray(shapely.get_coordinates(shapely.shortest_line(a, b)), dtype=float)
+
+
+def _reaches(vehicle: VehicleTrailer) -> tuple[float, float]:
+    """Largest distance of a trailer point from the trailer axle, of a vehicle point from the hitch [m]."""
+    v = vehicle
+    trailer = max(math.hypot(max(v.trailer_rear, v.trailer_front), v.trailer_width / 2), v.trailer_length)
+    car = math.hypot(v.hitch_offset + v.wheelbase + v.front_overhang, v.vehicle_width / 2)
+    return trailer, car
+
+
+def _subsamples(
+    vehicle: VehicleTrailer, states: np.ndarray, max_step_m: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Configurations along the motion, the row each belongs to, and the half sub-step to subtract there."""
+    n = len(states)
+    if n == 1:
+        return states.copy(), np.zeros(1, dtype=int), np.zeros(1)
+    delta = np.diff(states, axis=0)
+    delta[:, 2:] = wrap_angle(delta[:, 2:])  # the short way round (a heading recorded wrapped)
+    reach_t, reach_v = _reaches(vehicle)
+    shift = np.hypot(delta[:, 0], delta[:, 1])
+    turn_t, turn_v = np.abs(delta[:, 2]), np.abs(delta[:, 2] + delta[:, 3])
+    moves = shift + np.maximum(turn_t * reach_t, turn_t * vehicle.trailer_length + turn_v * reach_v)
+    counts = np.maximum(1, np.ceil(moves / max_step_m)).astype(np.int64)
+    total = int(counts.sum()) + 1
+    if total > MAX_SUBSAMPLES:
+        raise InputError(
+            f"states move too far between rows for max_step_m = {max_step_m:g} m: {total} sub-samples needed, "
+            f"at most {MAX_SUBSAMPLES} checked"
+        )
+    half = moves / counts / 2
+    rows = np.repeat(np.arange(n - 1), counts)
+    starts = np.cumsum(counts) - counts
+    fraction = (np.arange(total - 1) - starts[rows]) / counts[rows]
+    configs = states[rows] + fraction[:, None] * delta[rows]
+    half_steps = half[rows]
+    # A recorded state belongs to the steps on both sides: the larger half step holds for it.
+    before = np.concatenate([[0.0], half[:-1]])
+    half_steps[starts] = np.maximum(half, before)
+    configs = np.vstack([configs, states[-1:]])
+    return configs, np.append(rows, n - 1), np.append(half_steps, half[-1])
+
+
+class _Checker:
+    """The scene made ready for many queries: an STRtree of the obstacles, the area and its ring."""
+
+    def __init__(self, vehicle: VehicleTrailer, scene: Scene):
+        self.vehicle = vehicle
+        self.obstacles = np.array([shapely.Polygon(o.polygon) for o in scene.obstacles], dtype=object)
+        self.boxes = shapely.bounds(self.obstacles).reshape(-1, 4)  # xmin, ymin, xmax, ymax of each
+        self.tree = shapely.STRtree(self.obstacles) if scene.obstacles else None
+        self.area = shapely.Polygon(scene.area.boundary) if scene.area is not None else None
+        if self.area is not None:
+            shapely.prepare(self.area)
+        self.ring = self.area.exterior if self.area is not None else None
+
+    def clearances(self, configs: np.ndarray) -> np.ndarray:
+        """Clearance [m] of each configuration, rows (x, y, yaw, hitch)."""
+        bodies = _body_geometries(self.vehicle, configs)  # (m, b)
+        flat = bodies.ravel()
+        nearest = np.full(len(flat), math.inf)
+        if self.tree is not None:
+            (which, _), distance = self.tree.query_nearest(flat, return_distance=True, all_matches=False)
+            np.minimum.at(nearest, which, distance)
+        if self.area is not None:
+            inside = shapely.within(flat, self.area)
+            nearest = np.minimum(nearest, np.where(inside, shapely.distance(flat, self.ring), 0.0))
+        return nearest.reshape(bodies.shape).min(axis=1)
+
+    def bounds(self, configs: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For a sweep: ``max(clearance - half, 0)`` and the clearance of each configuration, where it matters.
+
+        Exact for every configuration whose bound could be the least of ``configs``; the others may come
+        out larger (up to inf) than they are. Pruned by bounding boxes: a body's distance to an obstacle is
+        computed only when the distance between their boxes, less the half step, does not exceed a bound
+        already reached (the distance to the obstacle whose box is nearest, or the area's).
+        """
+        bodies = _body_geometries(self.vehicle, configs)  # (m, b)
+        flat = bodies.ravel()
+        slack = np.repeat(half, bodies.shape[1])  # the half step of each body's configuration
+        near = np.full(len(flat), math.inf)
+        if self.area is not None:
+            near = self._area_distances(flat)
+        if len(self.obstacles):
+            boxes = shapely.bounds(flat)
+            gap_x = np.maximum(self.boxes[None, :, 0] - boxes[:, None, 2], boxes[:, None, 0] - self.boxes[None, :, 2])
+            gap_y = np.maximum(self.boxes[None, :, 1] - boxes[:, None, 3], boxes[:, None, 1] - self.boxes[None, :, 3])
+            low = np.hypot(np.maximum(gap_x, 0.0), np.maximum(gap_y, 0.0))  # (n, k) lower bounds
+            first = np.argmin(low, axis=1)
+            near = np.minimum(near, shapely.distance(flat, self.obstacles[first]))
+            reached = max(float(np.min(near - slack)), 0.0)  # the least bound is at most this
+            low[np.arange(len(flat)), first] = math.inf  # computed already
+            body, obstacle = np.nonzero(low - slack[:, None] <= reached)
+            if len(body):
+                np.minimum.at(near, body, shapely.distance(flat[body], self.obstacles[obstacle]))
+        exact = near.reshape(bodies.shape).min(axis=1)
+        return np.maximum(exact - half, 0.0), exact
+
+    def _area_distances(self, flat: np.ndarray) -> np.ndarray:
+        """Distance of each body to the area's boundary, 0 if it is not wholly inside the area.
+
+        A body clear of the boundary lies wholly inside or wholly outside: one of its points decides.
+        """
+        distance = shapely.distance(flat, self.ring)
+        coords, index = shapely.get_coordinates(flat, return_index=True)
+        x, y = coords[np.searchsorted(index, np.arange(len(flat)))].T
+        return np.where(shapely.contains_xy(self.area, x, y), distance, 0.0)
+
+
+def _rectangles(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, back: float, front: float, half: float) -> np.ndarray:
+    """Closed rectangles, (m, 5, 2), as :func:`~.geometry.rectangle` makes one, for arrays of frames."""
+    local = np.array([[-back, -half], [front, -half], [front, half], [-back, half], [-back, -half]])
+    c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+    px = x[:, None] + c * local[:, 0] - s * local[:, 1]
+    py = y[:, None] + s * local[:, 0] + c * local[:, 1]
+    return np.stack([px, py], -1)
+
+
+def _body_geometries(vehicle: VehicleTrailer, configs: np.ndarray) -> np.ndarray:
+    """The bodies of :func:`body_shapes` for many configurations at once: an (m, b) array of geometries."""
+    v = vehicle
+    x, y, yaw, hitch = configs.T
+    c, s = np.cos(yaw), np.sin(yaw)
+    hx, hy = x + v.trailer_length * c, y + v.trailer_length * s  # Eqs. (25)-(26)
+    yaw_v = yaw + hitch
+    cv, sv = np.cos(yaw_v), np.sin(yaw_v)
+    rx, ry = hx + v.hitch_offset * cv, hy + v.hitch_offset * sv  # Eqs. (27)-(28)
+    car_front = v.wheelbase + v.front_overhang
+    car = shapely.polygons(_rectangles(rx, ry, yaw_v, v.rear_overhang, car_front, v.vehicle_width / 2))
+    trailer = shapely.polygons(_rectangles(x, y, yaw, v.trailer_rear, v.trailer_front, v.trailer_width / 2))
+    hitch_xy = np.stack([hx, hy], -1)
+    nose = np.stack([x + v.trailer_front * c, y + v.trailer_front * s], -1)
+    columns = [car, trailer, shapely.linestrings(np.stack([nose, hitch_xy], 1))]
+    if _has_tow_bar(v):
+        bumper = np.stack([rx - v.rear_overhang * cv, ry - v.rear_overhang * sv], -1)
+        columns.append(shapely.linestrings(np.stack([bumper, hitch_xy], 1)))
+    return np.stack(columns, axis=1)
