@@ -166,6 +166,10 @@ FILE_CASES: list[tuple[str, str, str, str]] = [
     ("noise past its bound", "hitch_noise_std_deg = 90.0\n", "--plant", "plant.hitch_noise_std_deg"),
     ("solver option CasADi refuses, in a file",
      START_TOML + "[nmpc]\nkind = 'paper'\nsolver_options = {max_iter = 'x'}\n", "--scenario", "illegal type"),
+    ("self-intersecting obstacle", START_TOML + "[[obstacles]]\npolygon = [[0, 0], [1, 1], [1, 0], [0, 1]]\n",
+     "--scenario", "polygon"),
+    ("start inside an obstacle", START_TOML + "[[obstacles]]\nname = 'shed'\n"
+     "polygon = [[9, 3], [11, 3], [11, 4], [9, 4]]\n", "--scenario", "shed"),
     ("missing file", None, "--vehicle", "cannot read"),  # type: ignore[list-item]
 ]
 
