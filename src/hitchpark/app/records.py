@@ -284,12 +284,19 @@ class RecordWriter:
         return self
 
     def write(self, record: CaseRecord) -> None:
+        """Append the record's line whole, or, if interrupted (Ctrl-C) or failing midway, nothing."""
         assert self._fh is not None, "use RecordWriter as a context manager"
         data = memoryview(record.to_line().encode("utf-8"))
-        while data:  # one write in practice; a short write continues where it stopped
-            written = self._fh.write(data)
-            data = data[written or 0 :]
-        self._fh.flush()
+        end = os.fstat(self._fh.fileno()).st_size
+        try:
+            while data:  # one write in practice; a short write continues where it stopped
+                written = self._fh.write(data)
+                data = data[written or 0 :]
+            self._fh.flush()
+        except BaseException:
+            if data:  # a part of the line went out: take it back, the file ends in a whole line again
+                os.ftruncate(self._fh.fileno(), end)
+            raise
 
     def __exit__(self, *exc: object) -> None:
         if self._fh is not None:
