@@ -23,13 +23,25 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Iterator
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Iterator
+from concurrent.futures import Future, ProcessPoolExecutor
 from multiprocessing import current_process, resource_tracker
 from multiprocessing.context import SpawnContext, SpawnProcess
-from typing import Any
+from types import FrameType
+from typing import Any, ParamSpec, TypeVar
 
-__all__ = ["WorkerPool", "child_pids", "end_with_parent", "init_worker", "sigint_blocked", "stop_processes"]
+__all__ = [
+    "WorkerPool",
+    "child_pids",
+    "end_with_parent",
+    "init_worker",
+    "interrupts_deferred",
+    "sigint_blocked",
+    "stop_processes",
+]
+
+P = ParamSpec("P")
+T = TypeVar("T")
 
 #: How often a worker's watchdog thread checks its parent [s].
 PARENT_POLL_S = 0.5
@@ -58,6 +70,29 @@ def sigint_blocked() -> Iterator[None]:
         yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+@contextlib.contextmanager
+def interrupts_deferred() -> Iterator[None]:
+    """Hold a Ctrl-C that comes during the block back until its end, then handle it as it would have been.
+
+    In the main thread only (the only one Python runs signal handlers in); elsewhere it does nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    frames: list[FrameType | None] = []
+
+    def remember(signum: int, frame: FrameType | None) -> None:
+        frames.append(frame)
+
+    previous = signal.signal(signal.SIGINT, remember)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if frames and callable(previous):
+            previous(signal.SIGINT, frames[-1])
 
 
 def _arm_pdeathsig() -> bool:
@@ -106,7 +141,9 @@ class WorkerProcess(SpawnProcess):
 
     def start(self) -> None:
         self.from_main_thread = threading.current_thread() is threading.main_thread()  # pickled to the child
-        with sigint_blocked():
+        # Not cut short by Ctrl-C: a child left without its start-up data prints a traceback, and one
+        # started but not yet recorded would not be stopped.
+        with interrupts_deferred(), sigint_blocked():
             super().start()
 
 
@@ -121,6 +158,17 @@ class WorkerContext(SpawnContext):
         process = WorkerProcess(*args, **kwargs)
         self.processes.append(process)
         return process
+
+
+class _Executor(ProcessPoolExecutor):
+    """A process pool whose ``submit`` (which may start a worker and the pool's thread) Ctrl-C does not cut short.
+
+    Cut short, it leaves the pool half set up: a thread that cannot be joined, a worker not recorded.
+    """
+
+    def submit(self, fn: Callable[P, T], /, *args: P.args, **kwargs: P.kwargs) -> Future[T]:
+        with interrupts_deferred():
+            return super().submit(fn, *args, **kwargs)
 
 
 class WorkerPool:
@@ -139,7 +187,7 @@ class WorkerPool:
 
     def __enter__(self) -> ProcessPoolExecutor:
         self._context = WorkerContext()
-        self._pool = ProcessPoolExecutor(
+        self._pool = _Executor(
             max_workers=self.workers, mp_context=self._context, initializer=init_worker, initargs=(os.getpid(),)
         )
         return self._pool
