@@ -206,6 +206,9 @@ class DaskExecutor:
                     threads_per_worker=1,
                     processes=True,
                     dashboard_address=None,
+                    # The scheduler serves HTTP (health, metrics) even without a dashboard, by default on
+                    # port 8787, warning on stderr when another cluster holds that: any free port will do.
+                    scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                     silence_logs=logging.ERROR,
                     loop=self._loop.ioloop,
                 )
