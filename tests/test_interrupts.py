@@ -19,7 +19,13 @@ from pathlib import Path
 import pytest
 
 import hitchpark
+from hitchpark.app.records import RecordWriter, scan_records
+from hitchpark.app.sweep import CaseTask, SweepConfig, run_case
+from hitchpark.app.workers import interrupts_deferred
 from hitchpark.cli import EXIT_INTERRUPTED
+from hitchpark.control import NMPCSettings
+from hitchpark.maneuver import ManeuverSettings
+from hitchpark.model import PlantSettings
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds processes through /proc")
 
@@ -28,6 +34,8 @@ CODE = "import sys; from hitchpark.cli import main; sys.exit(main(sys.argv[1:]))
 
 #: The paper's process on the ideal plant: about 0.15 s a case, so sweeps of a few dozen cases stay short.
 PAPER_IDEAL = {"paper.toml": '[nmpc]\nkind = "paper"\n', "ideal.toml": '[plant]\nkind = "ideal"\n'}
+
+IDEAL = PlantSettings(kind="ideal")
 
 #: Hang guards: how long a step may take before the test gives up (generous; nothing is timed).
 START_S = 60.0
@@ -188,6 +196,22 @@ def test_ctrl_c_during_a_solve_stops_a_serial_sweep(tmp_path):
     assert 1 <= len(whole_records(out.read_bytes())) < 30
 
 
+def test_ctrl_c_stops_a_sweep_on_a_dask_local_cluster_and_its_workers(tmp_path):
+    pytest.importorskip("distributed")
+    out = tmp_path / "dask.jsonl"
+    argv = sweep_argv(tmp_path, out, n=30, workers=1)
+    proc = start([*argv[:-2], "--dask", "local", "--out", str(out)], tmp_path)
+    wait_until(lambda: out.exists() and b"\n" in out.read_bytes(), "record", proc=proc)
+    workers = children(proc.pid)
+    assert interrupt_and_wait(proc) == EXIT_INTERRUPTED
+    err = (tmp_path / "stderr").read_bytes()
+    assert b"Traceback" not in err
+    assert len(shown_lines(err)) == 1
+    assert_group_ends(proc.pid)
+    assert not [pid for pid in workers if alive(pid)]
+    assert 1 <= len(whole_records(out.read_bytes())) < 30
+
+
 def test_workers_of_a_killed_sweep_end_by_themselves(tmp_path):
     out = tmp_path / "killed.jsonl"
     proc = start(sweep_argv(tmp_path, out, n=40, workers=2), tmp_path)
@@ -228,3 +252,46 @@ def test_a_process_watching_its_parent_ends_after_the_parent_is_killed(tmp_path)
     finally:
         if group(proc.pid):
             os.killpg(proc.pid, signal.SIGKILL)
+
+
+# --- the pieces, in this process ------------------------------------------------------------------------
+
+
+def test_a_ctrl_c_during_a_deferred_block_comes_at_its_end():
+    reached_end = False
+    with pytest.raises(KeyboardInterrupt):
+        with interrupts_deferred():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)  # Python runs the handler between bytecodes: here it only takes note
+            reached_end = True
+    assert reached_end
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_record_line_cut_short_by_ctrl_c_is_taken_back(tmp_path):
+    config = SweepConfig(seed=1, n=2, settings=ManeuverSettings(nmpc=NMPCSettings(kind="paper")), plant=IDEAL)
+    starts = config.starts()
+    records = [run_case(CaseTask(config, case, start)) for case, start in enumerate(starts)]
+    out = tmp_path / "records.jsonl"
+
+    class HalfThenInterrupt:
+        """The record file, but its next write puts out half of what it is given, and then Ctrl-C comes."""
+
+        def __init__(self, fh):
+            self.fh = fh
+
+        def write(self, data):
+            self.fh.write(data[: len(data) // 2])
+            raise KeyboardInterrupt
+
+        def __getattr__(self, name):
+            return getattr(self.fh, name)
+
+    with RecordWriter(out, scan_records(out, starts)) as writer:
+        writer.write(records[0])
+        whole = out.read_bytes()
+        real, writer._fh = writer._fh, HalfThenInterrupt(writer._fh)
+        with pytest.raises(KeyboardInterrupt):
+            writer.write(records[1])
+        writer._fh = real
+    assert out.read_bytes() == whole
