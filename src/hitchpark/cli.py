@@ -6,6 +6,7 @@ import argparse
 import math
 import os
 import re
+import signal
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -19,6 +20,9 @@ from .model.vehicle import VehicleTrailer, load_vehicle, vehicle_from_dict
 _VEHICLE_OVERRIDES = ("wheelbase", "hitch_offset", "trailer_length")
 
 EXIT_BAD_INPUT = 2
+
+#: Exit status after Ctrl-C (SIGINT), by convention 128 + SIGINT.
+EXIT_INTERRUPTED = 128 + signal.SIGINT
 
 
 class UsageError(InputError):
@@ -391,11 +395,29 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _interrupted(args: argparse.Namespace) -> str:
+    """The one line printed on Ctrl-C; a sweep says where its finished cases are."""
+    if args.command == "sweep":
+        return f"hitchpark sweep: interrupted; the finished cases stay in {args.out}, the same command resumes"
+    return f"hitchpark {args.command}: interrupted"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line ``argv``; return the exit status.
+
+    0 on success, 1 when a maneuver does not park, 2 on bad input, 130 on Ctrl-C (SIGINT).
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
+    from .interrupts import Interrupts
+
+    interrupts = Interrupts()
     try:
         return int(args.func(args))
+    except KeyboardInterrupt:  # what was half-built is gone by now, and the workers of a pool
+        interrupts.exiting()
+        print(_interrupted(args), file=sys.stderr)
+        return EXIT_INTERRUPTED
     except InputError as exc:  # any other exception is a bug and keeps its traceback
         print(f"hitchpark {args.command}: error: {one_line(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -404,8 +426,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     except OSError as exc:  # an output path that cannot be written
         where = f": {exc.filename}" if exc.filename else ""
-        print(f"hitchpark {args.command}: error: cannot write output{where}: {exc.strerror or exc}", file=sys.stderr)
+        message = one_line(f"cannot write output{where}: {exc.strerror or exc}")
+        print(f"hitchpark {args.command}: error: {message}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    finally:
+        interrupts.restore()
 
 
 if __name__ == "__main__":

@@ -13,15 +13,19 @@ address of a running scheduler). :func:`register_executor` adds another.
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import logging
-import multiprocessing
 import os
+import signal
+import threading
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from itertools import islice
 from typing import Any, Protocol, TypeVar
 
 from ..checks import InputError, check_int
+from .workers import WorkerPool, child_pids, sigint_blocked
 
 __all__ = [
     "Executor",
@@ -36,6 +40,9 @@ TASKS_PER_WORKER = 4
 
 #: The most worker processes accepted.
 MAX_WORKERS = 1024
+
+#: How long an interrupted Dask LocalCluster may take to close, once its workers are gone [s].
+ABORT_TIMEOUT_S = 2.0
 
 
 class Executor(Protocol):
@@ -121,22 +128,28 @@ class SerialExecutor:
 
 @register_executor("pool")
 class PoolExecutor:
-    """A pool of ``workers`` processes on this machine (started fresh: ``spawn``)."""
+    """A pool of ``workers`` processes on this machine (started fresh: ``spawn``).
+
+    The workers ignore SIGINT and end with this process (:class:`~.workers.WorkerPool`); leaving on
+    an exception (Ctrl-C) cancels the queued cases and terminates the workers busy with one.
+    """
 
     def __init__(self, workers: int, option: str = ""):
         if option:
             raise InputError(f"the pool executor takes no option, got {option!r}")
         self.workers = workers
+        self._owner: WorkerPool | None = None
         self._pool: ProcessPoolExecutor | None = None
 
     def __enter__(self) -> PoolExecutor:
-        self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
+        self._owner = WorkerPool(self.workers)
+        self._pool = self._owner.__enter__()
         return self
 
     def __exit__(self, *exc: object) -> None:
-        if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
+        owner, self._owner, self._pool = self._owner, None, None
+        if owner is not None:
+            owner.__exit__(*exc)
 
     def imap_unordered(self, fn: Callable[[Any], Any], items: Iterable[Any]) -> Iterator[Any]:
         pool = self._pool
@@ -170,6 +183,8 @@ class DaskExecutor:
         self.address = option
         self._client: Any = None
         self._cluster: Any = None
+        self._loop: _QuietLoop | None = None
+        self._children_before: set[int] | None = None
 
     @property
     def local(self) -> bool:
@@ -181,14 +196,26 @@ class DaskExecutor:
         except ImportError:
             raise InputError("--dask needs the Dask distributed package: pip install 'dask[distributed]'") from None
         if self.local:
-            self._cluster = distributed.LocalCluster(
-                n_workers=self.workers,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-                silence_logs=logging.ERROR,
-            )
-            self._client = distributed.Client(self._cluster)
+            # The cluster's worker processes are started from its IO loop's threads; started from a
+            # thread that holds SIGINT back, they hold it back too and leave Ctrl-C to this process.
+            self._children_before = child_pids()
+            self._loop = _QuietLoop()
+            try:
+                self._cluster = distributed.LocalCluster(
+                    n_workers=self.workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                    # The scheduler serves HTTP (health, metrics) even without a dashboard, by default on
+                    # port 8787, warning on stderr when another cluster holds that: any free port will do.
+                    scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                    silence_logs=logging.ERROR,
+                    loop=self._loop.ioloop,
+                )
+                self._client = distributed.Client(self._cluster, loop=self._loop.ioloop)
+            except BaseException:  # Ctrl-C while the cluster starts, say
+                self._abort()
+                raise
         else:
             try:
                 self._client = distributed.Client(self.address, timeout="20s")
@@ -197,12 +224,39 @@ class DaskExecutor:
         return self
 
     def __exit__(self, *exc: object) -> None:
+        if exc and exc[0] is not None and self.local:
+            self._abort()
+            return
         if self._client is not None:
             self._client.close()
             self._client = None
         if self._cluster is not None:
             self._cluster.close()
             self._cluster = None
+        if self._loop is not None:
+            self._loop.stop()
+            self._loop = None
+
+    def _abort(self) -> None:
+        """Stop a LocalCluster at once: its worker processes first, busy or not, then the rest.
+
+        What the scheduler and the nannies log about workers gone and connections closed is
+        beside the point now: it is not shown.
+        """
+        with _silenced("distributed", "tornado", "asyncio"):
+            before, now = self._children_before, child_pids()
+            if before is not None and now is not None:
+                for pid in now - before:  # the cluster's workers (a SIGTERM-proof resource tracker stays)
+                    with contextlib.suppress(OSError):
+                        os.kill(pid, signal.SIGTERM)
+            for part in (self._client, self._cluster):
+                if part is not None:
+                    with contextlib.suppress(Exception):
+                        part.close(timeout=ABORT_TIMEOUT_S)
+            self._client = self._cluster = None
+            if self._loop is not None:
+                self._loop.stop()
+                self._loop = None
 
     def imap_unordered(self, fn: Callable[[Any], Any], items: Iterable[Any]) -> Iterator[Any]:
         from distributed import as_completed
@@ -226,3 +280,58 @@ class DaskExecutor:
         if self.local:
             return f"a Dask LocalCluster of {self.workers} processes"
         return f"the Dask scheduler at {self.address}"
+
+
+@contextlib.contextmanager
+def _silenced(*names: str) -> Iterator[None]:
+    """Turn the named loggers and those below them off for the block."""
+    below = [
+        logger
+        for name, logger in logging.root.manager.loggerDict.items()
+        if isinstance(logger, logging.Logger) and name.startswith(tuple(f"{n}." for n in names))
+    ]
+    loggers = [logging.getLogger(name) for name in names] + below
+    before = [logger.disabled for logger in loggers]
+    for logger in loggers:
+        logger.disabled = True
+    try:
+        yield
+    finally:
+        for logger, disabled in zip(loggers, before, strict=True):
+            logger.disabled = disabled
+
+
+class _QuietLoop:
+    """An asyncio loop (as a Tornado IOLoop, for Dask) in a thread of its own that holds SIGINT back.
+
+    Threads inherit the signal mask of the thread that starts them, and processes that of the
+    thread that forks them: whatever this loop starts never sees a terminal's Ctrl-C.
+    """
+
+    def __init__(self) -> None:
+        from tornado.ioloop import IOLoop
+
+        ready = threading.Event()
+        self._stopping: asyncio.Event | None = None
+        self._aloop: asyncio.AbstractEventLoop | None = None
+
+        async def serve() -> None:
+            self._stopping = asyncio.Event()
+            self._aloop = asyncio.get_running_loop()
+            self.ioloop = IOLoop.current()
+            ready.set()
+            await self._stopping.wait()
+
+        with sigint_blocked():
+            self._thread = threading.Thread(
+                target=asyncio.run, args=(serve(),), name="hitchpark-dask-loop", daemon=True
+            )
+            self._thread.start()
+        ready.wait()
+
+    def stop(self) -> None:
+        """End the loop (asyncio.run cancels what is left on it) and its thread."""
+        if self._aloop is not None and self._stopping is not None and not self._aloop.is_closed():
+            with contextlib.suppress(RuntimeError):  # closed meanwhile
+                self._aloop.call_soon_threadsafe(self._stopping.set)
+        self._thread.join(timeout=ABORT_TIMEOUT_S)

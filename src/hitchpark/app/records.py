@@ -284,12 +284,20 @@ class RecordWriter:
         return self
 
     def write(self, record: CaseRecord) -> None:
+        """Append the record's line whole, or, if interrupted (Ctrl-C) or failing midway, nothing."""
         assert self._fh is not None, "use RecordWriter as a context manager"
         data = memoryview(record.to_line().encode("utf-8"))
-        while data:  # one write in practice; a short write continues where it stopped
-            written = self._fh.write(data)
-            data = data[written or 0 :]
-        self._fh.flush()
+        fd = self._fh.fileno()
+        end, size = os.fstat(fd).st_size, len(data)
+        try:
+            while data:  # one write in practice; a short write continues where it stopped
+                written = self._fh.write(data)
+                data = data[written or 0 :]
+            self._fh.flush()
+        except BaseException:
+            if end < os.fstat(fd).st_size < end + size:  # a part of the line went out: take it back
+                os.ftruncate(fd, end)
+            raise
 
     def __exit__(self, *exc: object) -> None:
         if self._fh is not None:

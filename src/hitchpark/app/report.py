@@ -6,10 +6,8 @@ Figures come from :mod:`hitchpark.viz`, imported only when asked for.
 from __future__ import annotations
 
 import math
-import multiprocessing
 import os
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +19,7 @@ from ..maneuver.process import park
 from ..maneuver.result import ManeuverResult
 from ..maneuver.scenario import Scenario, builtin_scenarios
 from ..model.plant import PlantSettings
+from .workers import WorkerPool
 
 __all__ = [
     "ANIMATION_FILE",
@@ -201,7 +200,8 @@ def reproduce(
             for r, folder in zip(results, folders, strict=True):
                 render_maneuver(r, folder, plots, animation)
         elif plots or animation:
-            with ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn")) as pool:
+            # Quiet workers: on Ctrl-C or an error they are terminated, not awaited, before the stage goes.
+            with WorkerPool(n) as pool:
                 jobs = [
                     pool.submit(render_maneuver, r, f, plots, animation) for r, f in zip(results, folders, strict=True)
                 ]

@@ -318,14 +318,18 @@ def run_sweep(
             RecordWriter(out, existing) as writer,
             _progress_bar(config.n, len(records), progress) as bar,
         ):
-            for record in running.imap_unordered(run_case, todo):
-                writer.write(record)
-                records[record.case] = record
-                parked += record.success
-                bar.set_postfix_str(f"parked {parked / len(records):.1%}", refresh=False)
-                bar.update()
-                if on_record is not None:
-                    on_record(record)
+            try:
+                for record in running.imap_unordered(run_case, todo):
+                    writer.write(record)
+                    records[record.case] = record
+                    parked += record.success
+                    bar.set_postfix_str(f"parked {parked / len(records):.1%}", refresh=False)
+                    bar.update()
+                    if on_record is not None:
+                        on_record(record)
+            except BaseException:  # Ctrl-C or an error: the bar goes, the message that follows says why
+                bar.leave = False
+                raise
     ordered = tuple(records[case] for case in range(config.n))
     summary = {**summarize(ordered), "seed": config.seed, "region": config.region.to_dict()}
     return SweepOutcome(
