@@ -22,8 +22,9 @@ import hitchpark
 from hitchpark.app.records import RecordWriter, scan_records
 from hitchpark.app.sweep import CaseTask, SweepConfig, run_case
 from hitchpark.app.workers import interrupts_deferred
-from hitchpark.cli import EXIT_INTERRUPTED
+from hitchpark.cli import EXIT_INTERRUPTED, main
 from hitchpark.control import NMPCSettings
+from hitchpark.interrupts import caused_by_interrupt
 from hitchpark.maneuver import ManeuverSettings
 from hitchpark.model import PlantSettings
 
@@ -295,3 +296,29 @@ def test_a_record_line_cut_short_by_ctrl_c_is_taken_back(tmp_path):
             writer.write(records[1])
         writer._fh = real
     assert out.read_bytes() == whole
+
+
+def test_an_interrupt_that_comes_back_from_c_code_as_another_error_is_an_interrupt(monkeypatch, capsys, tmp_path):
+    # Ctrl-C landing in CasADi's DM.__array__, called by NumPy's C code, reached the command as
+    # "SystemError: ... returned a result with an exception set", its cause the KeyboardInterrupt.
+    def interrupted_in_c(*args, **kwargs):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise SystemError("<function DM.__array__> returned a result with an exception set") from exc
+
+    monkeypatch.setattr("hitchpark.maneuver.process.park", interrupted_in_c)
+    code = main(["park", "--start", "10,3.5,0,0", "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == EXIT_INTERRUPTED
+    assert err.count("\n") == 1 and "interrupted" in err and "Traceback" not in err
+    assert caused_by_interrupt(SystemError()) is False
+
+
+def test_a_bug_is_not_taken_for_an_interrupt(monkeypatch, tmp_path):
+    def bug(*args, **kwargs):
+        raise ZeroDivisionError
+
+    monkeypatch.setattr("hitchpark.maneuver.process.park", bug)
+    with pytest.raises(ZeroDivisionError):
+        main(["park", "--start", "10,3.5,0,0", "--out", str(tmp_path / "out")])

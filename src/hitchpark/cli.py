@@ -409,11 +409,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     parser = build_parser()
     args = parser.parse_args(argv)
-    from .interrupts import Interrupts
+    from .interrupts import Interrupts, caused_by_interrupt
 
     interrupts = Interrupts()
     try:
-        return int(args.func(args))
+        try:
+            return int(args.func(args))
+        except Exception as exc:  # an interrupt that landed in C code comes back as another exception
+            if caused_by_interrupt(exc):
+                raise KeyboardInterrupt from exc
+            raise
     except KeyboardInterrupt:  # what was half-built is gone by now, and the workers of a pool
         interrupts.exiting()
         print(_interrupted(args), file=sys.stderr)

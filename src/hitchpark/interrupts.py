@@ -22,7 +22,7 @@ import threading
 from types import FrameType
 from typing import Any
 
-__all__ = ["Interrupts"]
+__all__ = ["Interrupts", "caused_by_interrupt"]
 
 
 def _casadi_dir() -> str | None:
@@ -36,11 +36,26 @@ def _raise_in(thread_id: int) -> None:
     ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread_id), ctypes.py_object(KeyboardInterrupt))
 
 
+def caused_by_interrupt(exc: BaseException | None) -> bool:
+    """Whether ``exc`` is a KeyboardInterrupt or was raised because of one.
+
+    A KeyboardInterrupt that lands inside a Python method called from C code (NumPy converting a
+    CasADi matrix, say) reaches the caller as a ``SystemError`` whose cause is the interrupt.
+    """
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
 def _handling_interrupt(thread_id: int) -> bool:
     """Whether the thread ``thread_id`` handles a KeyboardInterrupt now (in ``except``, ``finally``, ``__exit__``)."""
     current = sys._current_exceptions().get(thread_id)
     value = current[1] if isinstance(current, tuple) else current  # a tuple up to Python 3.11
-    return isinstance(value, KeyboardInterrupt)
+    return caused_by_interrupt(value)
 
 
 class Interrupts:
