@@ -6,12 +6,13 @@ lies in a blocked cell. The Euclidean distance transform (:func:`scipy.ndimage.d
 of the free cells gives, at a point's cell, a distance that overestimates the true distance to the
 scene by at most one cell diagonal; :meth:`DistanceGrid.clear` subtracts that.
 
-**Discs.** Each body is covered by discs on its centre line: a rectangle of width ``w`` by ``n`` discs of
-radius ``hypot(w / 2, l / (2 n))`` spaced ``l / n`` (``n`` so that the spacing is at most 0.8 m), the
-drawbar and the tow bar by small discs along them. A configuration is clear when every disc's centre is
-more than its radius, ``min_clearance_m`` and the grid's error from the scene; a motion sample, in
-addition, by half the largest body movement to the next sample. Conservative: the exact check
-(:func:`~hitchpark.model.collision.swept_clearance`) confirms the final path.
+**Outline points.** Points at most 0.25 m apart on the outlines of the vehicle and trailer bodies, the
+drawbar and the tow bar. A configuration is clear when every point is more than half the spacing,
+``min_clearance_m`` and the grid's error from the scene; a motion sample, in addition, by half the
+largest body movement to the next sample. Conservative: the exact check
+(:func:`~hitchpark.model.collision.swept_clearance`) confirms the final path. (Discs along the centre
+line were tried first: they overshoot the ends of a body by about half its width and blocked the
+driveway's goal, 0.5 m from its back fence.)
 
 **Heuristic.** The cost-to-go of the trailer axle on an 8-connected grid around the obstacles (Dijkstra
 from the goal, :func:`scipy.sparse.csgraph.dijkstra`), over cells where the axle keeps half the trailer's
@@ -33,31 +34,28 @@ from ...model.vehicle import VehicleTrailer
 
 __all__ = ["Discs", "DistanceGrid", "HolonomicHeuristic"]
 
-#: Largest spacing of the discs along a body [m].
-DISC_SPACING = 0.8
+#: Spacing of the points on the body outlines [m].
+POINT_SPACING = 0.25
 
 
 class Discs:
-    """Disc cover of the bodies: centres in body-fixed coordinates and radii."""
+    """Points on the outlines of the bodies, each standing for a disc of radius ``POINT_SPACING / 2``.
+
+    Body-fixed coordinates: the trailer's outline and the drawbar in the trailer frame (origin at its
+    axle, x forward), the vehicle's outline and the tow bar in the vehicle frame (origin at its rear
+    axle). Only outlines: an obstacle can only get inside a body by crossing its outline, which some
+    sample then sees (the start itself is checked exactly).
+    """
 
     def __init__(self, vehicle: VehicleTrailer):
         v = vehicle
-        # Trailer discs: along the trailer axis, in the trailer frame (origin at its axle).
-        t_local, t_radius = _cover(-v.trailer_rear, v.trailer_front, v.trailer_width)
-        # Vehicle discs: along the vehicle axis, in the vehicle frame (origin at its rear axle).
-        v_local, v_radius = _cover(-v.rear_overhang, v.wheelbase + v.front_overhang, v.vehicle_width)
-        # Drawbar: trailer nose to hitch, on the trailer axis; tow bar: hitch to the vehicle bumper.
-        draw = max(v.trailer_length - v.trailer_front, 1e-9)
-        n_draw = max(1, math.ceil(draw / 0.2))
-        d_local = v.trailer_front + (np.arange(n_draw) + 0.5) * draw / n_draw
-        self.trailer_x = np.concatenate([t_local, d_local])
-        self.trailer_r = np.concatenate([np.full(len(t_local), t_radius), np.full(n_draw, draw / n_draw / 2)])
-        tow = max(v.hitch_offset - v.rear_overhang, 0.0)
-        n_tow = max(1, math.ceil(tow / 0.2)) if tow > 0 else 0
-        tow_local = -v.hitch_offset + (np.arange(n_tow) + 0.5) * tow / max(n_tow, 1)
-        self.vehicle_x = np.concatenate([v_local, tow_local])
-        self.vehicle_r = np.concatenate([np.full(len(v_local), v_radius), np.full(n_tow, tow / max(n_tow, 1) / 2)])
-        self.radius = np.concatenate([self.trailer_r, self.vehicle_r])
+        tx, ty = _outline(-v.trailer_rear, v.trailer_front, v.trailer_width / 2)
+        dx = _segment(v.trailer_front, v.trailer_length)
+        vx, vy = _outline(-v.rear_overhang, v.wheelbase + v.front_overhang, v.vehicle_width / 2)
+        bx = _segment(-v.hitch_offset, -v.rear_overhang) if v.hitch_offset > v.rear_overhang else np.zeros(0)
+        self.trailer_x, self.trailer_y = np.concatenate([tx, dx]), np.concatenate([ty, np.zeros(len(dx))])
+        self.vehicle_x, self.vehicle_y = np.concatenate([vx, bx]), np.concatenate([vy, np.zeros(len(bx))])
+        self.radius = np.full(len(self.trailer_x) + len(self.vehicle_x), POINT_SPACING / 2)
         self.vehicle = vehicle
         # Largest distance of a body point from the trailer axle / from the hitch (movement bound).
         self.reach_trailer = max(
@@ -66,15 +64,15 @@ class Discs:
         self.reach_vehicle = math.hypot(v.hitch_offset + v.wheelbase + v.front_overhang, v.vehicle_width / 2)
 
     def centres(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """World x, y of every disc at ``states`` (..., 4): arrays of shape (..., discs)."""
+        """World x, y of every point at ``states`` (..., 4): arrays of shape (..., points)."""
         x, y, yaw, hitch = states[..., 0:1], states[..., 1:2], states[..., 2:3], states[..., 3:4]
         c, s = np.cos(yaw), np.sin(yaw)
         L_T, L_H = self.vehicle.trailer_length, self.vehicle.hitch_offset
-        xt, yt = x + c * self.trailer_x, y + s * self.trailer_x
+        xt, yt = x + c * self.trailer_x - s * self.trailer_y, y + s * self.trailer_x + c * self.trailer_y
         yaw_v = yaw + hitch
         cv, sv = np.cos(yaw_v), np.sin(yaw_v)
         x_r, y_r = x + L_T * c + L_H * cv, y + L_T * s + L_H * sv  # rear axle, Eqs. (25)-(28)
-        xv, yv = x_r + cv * self.vehicle_x, y_r + sv * self.vehicle_x
+        xv, yv = x_r + cv * self.vehicle_x - sv * self.vehicle_y, y_r + sv * self.vehicle_x + cv * self.vehicle_y
         return np.concatenate([xt, xv], axis=-1), np.concatenate([yt, yv], axis=-1)
 
     def movement(self, states: np.ndarray) -> np.ndarray:
@@ -86,12 +84,18 @@ class Discs:
         return shift + np.maximum(turn_t * self.reach_trailer, turn_t * L_T + turn_v * self.reach_vehicle)
 
 
-def _cover(back: float, front: float, width: float) -> tuple[np.ndarray, float]:
-    """Centres along [back, front] and the common radius of discs covering that rectangle of ``width``."""
-    length = front - back
-    n = max(1, math.ceil(length / DISC_SPACING))
-    spacing = length / n
-    return back + (np.arange(n) + 0.5) * spacing, math.hypot(width / 2, spacing / 2)
+def _segment(a: float, b: float) -> np.ndarray:
+    """Points from ``a`` to ``b`` (both included) at most ``POINT_SPACING`` apart."""
+    n = max(1, math.ceil(abs(b - a) / POINT_SPACING))
+    return np.linspace(a, b, n + 1)
+
+
+def _outline(back: float, front: float, half_width: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points around the rectangle [back, front] x [-half_width, half_width], at most ``POINT_SPACING`` apart."""
+    along, across = _segment(back, front), _segment(-half_width, half_width)[1:-1]
+    xs = np.concatenate([along, along, np.full(len(across), back), np.full(len(across), front)])
+    ys = np.concatenate([np.full(len(along), -half_width), np.full(len(along), half_width), across, across])
+    return xs, ys
 
 
 class DistanceGrid:

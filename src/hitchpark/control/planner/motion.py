@@ -1,16 +1,26 @@
 """Motion primitives on the exact full model (Eqs. 19-24), integrated for many primitives in one call.
 
-A primitive drives the rear axle ``length`` metres at 1 m/s, forward or in reverse, while the front steer
-moves from its value at the start towards a target at ``max_steer_rate`` (a ramp, then held): the steer
-never jumps within a direction. One RK4 step of the full model per sample, with the ramp evaluated at
-the RK4 stages' times. Built once per vehicle and sampling as a CasADi function mapped over a batch of
-primitives: evaluating 14 primitives of 10 samples takes about 0.3 ms, against about 1.8 ms for the same
-RK4 vectorised in NumPy (measured on this 2-core machine).
+A primitive drives the rear axle ``length`` metres at 1 m/s. The front steer is a state: it moves
+towards a commanded steer at most ``max_steer_rate`` (d delta / dt = clip((cmd - delta) / tau, -rate,
+rate), tau one sample), so it never jumps within a direction and its rate bound holds between samples
+by construction (each RK4 increment is a weighted mean of slopes within the bound).
+
+- **Forward**, the command is a front steer, held (within the forward cap that cannot jackknife).
+- **In reverse**, the command is a *virtual steer* (Section 3): the trailer is steered as a vehicle of
+  its own, the front steer commanded at every instant by Eq. (45) from the current hitch angle, clipped
+  to ``max_steer``. A held front steer in reverse drives the hitch away exponentially (the
+  unstable mode of a reversing trailer) and a front-steer lattice finds almost no long reverse
+  motions; a held virtual steer gives the trailer axle an arc and the hitch settles.
+
+One RK4 step per sample. Built once per vehicle and sampling as a CasADi function mapped over a batch
+of primitives: evaluating 14 primitives of 10 samples takes about 0.3 ms, against about 1.8 ms for the
+same RK4 vectorised in NumPy (measured on this 2-core machine).
 """
 
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 
 import casadi as ca
 import numpy as np
@@ -18,58 +28,130 @@ import numpy as np
 from ...model.kinematics import full_rhs
 from ...model.vehicle import VehicleTrailer
 
-__all__ = ["PrimitiveBatch", "steer_profile"]
+__all__ = ["GoalShot", "PrimitiveBatch", "commanded_steer"]
 
 
-def steer_profile(start: np.ndarray, target: np.ndarray, rate: float, t: np.ndarray) -> np.ndarray:
-    """Steer at times ``t`` [s] of a ramp from ``start`` towards ``target`` at ``rate`` [rad/s], then held."""
-    return start + np.clip(target - start, -rate * t, rate * t)
+def commanded_steer(vehicle: VehicleTrailer, hitch: ca.SX, command: ca.SX, direction: ca.SX | float) -> ca.SX:
+    """The front steer commanded: ``command`` itself forward; Eq. (45) of the virtual steer in reverse."""
+    s, c, t = ca.sin(hitch), ca.cos(hitch), ca.tan(command)
+    L, L_H = vehicle.wheelbase, vehicle.hitch_offset
+    virtual = ca.atan(L / L_H * (s - c * t) / (c + s * t))  # Eq. (45)
+    limited = ca.fmin(ca.fmax(virtual, -vehicle.max_steer), vehicle.max_steer)
+    return ca.if_else(direction > 0, command, limited)
+
+
+def _actuated_rhs(vehicle: VehicleTrailer, x: ca.SX, target: ca.SX, direction: ca.SX | float, tau: float) -> ca.SX:
+    """d/dt of (x, y, yaw, hitch, steer): the full model at 1 m/s, the steer towards ``target`` rate-limited."""
+    rate = vehicle.max_steer_rate
+    steer_rate = ca.fmin(ca.fmax((target - x[4]) / tau, -rate), rate)
+    return ca.vertcat(full_rhs(vehicle, x[:4], ca.vertcat(direction, x[4])), steer_rate)
+
+
+def _rk4_columns(f: Callable[[ca.SX], ca.SX], x0: ca.SX, h: float, samples: int) -> ca.SX:
+    """The state at each of ``samples`` RK4 steps of ``h`` from ``x0`` (``x0`` first), as columns."""
+    x, columns = x0, [x0]
+    for _ in range(samples):
+        k1 = f(x)
+        k2 = f(x + 0.5 * h * k1)
+        k3 = f(x + 0.5 * h * k2)
+        k4 = f(x + h * k3)
+        x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        columns.append(x)
+    return ca.horzcat(*columns)
+
+
+@functools.lru_cache(maxsize=16)
+def _shot_function(vehicle: VehicleTrailer, step: float, samples: int) -> ca.Function:
+    """``F(x0[5], lookahead, virtual_limit) -> (5, samples + 1)``: a reverse run onto the goal line, goal frame.
+
+    Pure pursuit of the trailer axle, driven backwards, towards the point of the line y = 0 one
+    look-ahead behind it (the foot of the perpendicular when the line is farther): the virtual steer
+    with the curvature 2 sin(alpha) / l_d, alpha the bearing of that point from the backward heading,
+    within +-``virtual_limit``; the front steer from it by Eq. (45), rate-limited as in the primitives.
+    """
+    x0, lookahead, limit = ca.SX.sym("x0", 5), ca.SX.sym("lookahead"), ca.SX.sym("limit")
+    L_T = vehicle.trailer_length
+
+    def rhs(x: ca.SX) -> ca.SX:
+        gy, yaw = x[1], x[2]
+        dx = ca.sqrt(ca.fmax(lookahead**2 - gy**2, 0.0))
+        distance = ca.fmax(ca.sqrt(dx**2 + gy**2), 1e-6)
+        bearing = ca.atan2(-gy, -dx) - (yaw + np.pi)
+        alpha = ca.atan2(ca.sin(bearing), ca.cos(bearing))
+        virtual = ca.atan(-2.0 * L_T * ca.sin(alpha) / distance)
+        virtual = ca.fmin(ca.fmax(virtual, -limit), limit)
+        return _actuated_rhs(vehicle, x, commanded_steer(vehicle, x[3], virtual, -1.0), -1.0, step)
+
+    return ca.Function("goal_shot", [x0, lookahead, limit], [_rk4_columns(rhs, x0, step, samples)])
 
 
 @functools.lru_cache(maxsize=16)
 def _primitive_function(vehicle: VehicleTrailer, length: float, samples: int) -> ca.Function:
-    """``F(x0[4], steer0, steer1, direction) -> (4, samples + 1)``: the configurations at the samples."""
-    x0, s0, s1, d = ca.SX.sym("x0", 4), ca.SX.sym("s0"), ca.SX.sym("s1"), ca.SX.sym("d")
-    rate = vehicle.max_steer_rate
+    """``F(x0[5], command, direction) -> (5, samples + 1)``: (x, y, yaw, hitch, steer) at the samples."""
+    x0, command, d = ca.SX.sym("x0", 5), ca.SX.sym("command"), ca.SX.sym("d")
     h = length / samples
 
-    def steer(t: float) -> ca.SX:
-        return s0 + ca.fmin(ca.fmax(s1 - s0, -rate * t), rate * t)
+    def rhs(x: ca.SX) -> ca.SX:
+        return _actuated_rhs(vehicle, x, commanded_steer(vehicle, x[3], command, d), d, h)
 
-    def rhs(x: ca.SX, t: float) -> ca.SX:
-        return full_rhs(vehicle, x, ca.vertcat(d, steer(t)))
+    return ca.Function("primitive", [x0, command, d], [_rk4_columns(rhs, x0, h, samples)])
 
-    x, columns = x0, [x0]
-    for i in range(samples):
-        t = i * h
-        k1 = rhs(x, t)
-        k2 = rhs(x + 0.5 * h * k1, t + 0.5 * h)
-        k3 = rhs(x + 0.5 * h * k2, t + 0.5 * h)
-        k4 = rhs(x + h * k3, t + h)
-        x = x + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        columns.append(x)
-    return ca.Function("primitive", [x0, s0, s1, d], [ca.horzcat(*columns)])
+
+@functools.lru_cache(maxsize=16)
+def _initial_steer_function(vehicle: VehicleTrailer) -> ca.Function:
+    hitch, command, d = ca.SX.sym("hitch"), ca.SX.sym("command"), ca.SX.sym("d")
+    return ca.Function("initial_steer", [hitch, command, d], [commanded_steer(vehicle, hitch, command, d)])
 
 
 class PrimitiveBatch:
     """Integrates up to ``size`` primitives of one vehicle and sampling at once."""
 
     def __init__(self, vehicle: VehicleTrailer, length: float, samples: int, size: int):
+        vehicle.require_hitch_offset()  # Eq. (45) divides by L_H
         self.samples = samples
         self.size = size
         self.times = np.linspace(0.0, length, samples + 1)
         self._mapped = _primitive_function(vehicle, length, samples).map(size)
+        self._initial = _initial_steer_function(vehicle).map(size)
 
-    def run(self, start: np.ndarray, steer0: np.ndarray, steer1: np.ndarray, direction: np.ndarray) -> np.ndarray:
-        """Configurations, shape ``(n, samples + 1, 4)``, of the ``n <= size`` primitives from ``start`` (4,).
-
-        ``steer0``, ``steer1``, ``direction`` (+1 forward, -1 reverse): one per primitive.
-        """
-        n = len(steer1)
+    def initial_steer(self, hitch: float, command: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        """The steer set at standstill before a primitive starts: what it commands at its first instant."""
+        n = len(command)
         pad = self.size - n
-        s0 = np.pad(np.asarray(steer0, dtype=float), (0, pad))
-        s1 = np.pad(np.asarray(steer1, dtype=float), (0, pad))
-        d = np.pad(np.asarray(direction, dtype=float), (0, pad))
-        x0 = np.repeat(np.asarray(start, dtype=float)[:, None], self.size, axis=1)
-        out = np.asarray(self._mapped(x0, s0, s1, d))  # (4, size * (samples + 1))
-        return out.reshape(4, self.size, self.samples + 1).transpose(1, 2, 0)[:n]
+        out = self._initial(
+            np.full(self.size, hitch), np.pad(np.asarray(command, float), (0, pad)), np.pad(direction, (0, pad))
+        )
+        return np.asarray(out, dtype=float).ravel()[:n]
+
+    def run(self, start: np.ndarray, steer0: np.ndarray, command: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        """Configurations and steer, shape ``(n, samples + 1, 5)``, of ``n <= size`` primitives from ``start``.
+
+        ``start``: (x, y, yaw, hitch); ``steer0``, ``command``, ``direction`` (+1 forward, -1 reverse): one
+        per primitive.
+        """
+        n = len(command)
+        pad = self.size - n
+        x0 = np.empty((5, self.size))
+        x0[:4] = np.asarray(start, dtype=float)[:4, None]
+        x0[4] = np.pad(np.asarray(steer0, dtype=float), (0, pad))
+        c = np.pad(np.asarray(command, dtype=float), (0, pad))
+        d = np.pad(np.asarray(direction, dtype=float), (0, pad), constant_values=1.0)
+        out = np.asarray(self._mapped(x0, c, d))  # (5, size * (samples + 1))
+        return out.reshape(5, self.size, self.samples + 1).transpose(1, 2, 0)[:n]
+
+
+class GoalShot:
+    """Reverse runs onto the goal line for several look-aheads at once (the planner's end-game)."""
+
+    def __init__(self, vehicle: VehicleTrailer, step: float, length: float, lookaheads: tuple[float, ...]):
+        vehicle.require_hitch_offset()
+        self.samples = max(1, round(length / step))
+        self.lookaheads = np.asarray(lookaheads, dtype=float)
+        self._mapped = _shot_function(vehicle, step, self.samples).map(len(lookaheads))
+
+    def run(self, start: np.ndarray, limit: float) -> np.ndarray:
+        """(x, y, yaw, hitch, steer) of each run from ``start`` (5,) in the goal frame: (runs, samples + 1, 5)."""
+        n = len(self.lookaheads)
+        x0 = np.repeat(np.asarray(start, dtype=float)[:, None], n, axis=1)
+        out = np.asarray(self._mapped(x0, self.lookaheads, np.full(n, limit)))
+        return out.reshape(5, n, self.samples + 1).transpose(1, 2, 0)

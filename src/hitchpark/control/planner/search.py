@@ -16,13 +16,17 @@ from ...model.state import Pose, State, check_goal, check_state, to_goal_frame, 
 from ...model.vehicle import VehicleTrailer, check_vehicle
 from ..pure_pursuit import forward_steer_limit
 from .grid import Discs, DistanceGrid, HolonomicHeuristic
-from .motion import PrimitiveBatch, steer_profile
+from .heuristic import TrailerTable, trailer_table
+from .motion import GoalShot, PrimitiveBatch
 from .settings import Plan, PlannerSettings
 
 __all__ = ["plan"]
 
 #: Cell of the holonomic heuristic's grid [m].
 HEURISTIC_CELL_M = 0.25
+
+#: Look-aheads of the end-game's reverse runs onto the goal line [m].
+SHOT_LOOKAHEADS = (2.5, 4.0, 6.0)
 
 #: Cap on the nodes of one search (memory bound; the time limit usually ends a search first).
 MAX_NODES = 2_000_000
@@ -82,11 +86,14 @@ class _Search:
         s = settings
         self.rate = vehicle.max_steer_rate
         self.hitch_limit = vehicle.max_hitch - s.hitch_margin
-        self.reverse_targets = np.linspace(-vehicle.max_steer, vehicle.max_steer, s.steer_samples)
         cap = forward_steer_limit(vehicle)
-        self.forward_targets = np.linspace(-cap, cap, s.steer_samples)
+        forward = np.linspace(-cap, cap, s.steer_samples)
+        reverse = np.linspace(-s.virtual_limit, s.virtual_limit, s.steer_samples)
+        self.commands = np.concatenate([forward, reverse])
+        self.directions = np.concatenate([np.ones(s.steer_samples), -np.ones(s.steer_samples)])
         self.batch = PrimitiveBatch(vehicle, s.primitive_length_m, s.samples, 2 * s.steer_samples)
         self.discs = Discs(vehicle)
+        self.shot = GoalShot(vehicle, s.sample_step_m, s.shot_length_m, SHOT_LOOKAHEADS) if s.shot_length_m else None
         self.bounds = self._bounds()
         self.grid = DistanceGrid(scene, self.bounds, s.collision_cell_m)
         self.need = self.discs.radius + s.min_clearance_m
@@ -96,6 +103,9 @@ class _Search:
             self.holonomic = HolonomicHeuristic(
                 self.grid, (goal.x, goal.y), keep, HEURISTIC_CELL_M, self.start[None, :2]
             )
+        self.table: TrailerTable | None = None
+        if s.heuristic_radius_m > 0:
+            self.table = trailer_table(s.heuristic_radius_m, 0.5, 72, 1.0, s.weight_forward, s.weight_reverse)
         self.expanded = 0
 
     # --- set-up ------------------------------------------------------------------------------------------
@@ -129,7 +139,10 @@ class _Search:
         distance = np.hypot(gx, gy)
         if self.holonomic is not None:
             distance = np.maximum(distance, self.holonomic(states[:, 0], states[:, 1]))
-        h = distance + s.heuristic_yaw_m * np.abs(gyaw) + s.heuristic_hitch_m * np.abs(states[:, 3])
+        h = distance + s.heuristic_yaw_m * np.abs(gyaw)
+        if self.table is not None:
+            h = np.fmax(h, self.table(gx, gy, gyaw))  # nan (off the table) leaves h
+        h = h + s.heuristic_hitch_m * np.abs(states[:, 3])
         return np.asarray(s.heuristic_weight * h, dtype=float)
 
     def _at_goal(self, states: np.ndarray) -> np.ndarray:
@@ -192,8 +205,6 @@ class _Search:
         heap: list[tuple[float, int]] = [(float(self._heuristic(self.start[None, :])[0]), 0)]
         best_g: dict[tuple[int, int, int, int], float] = {self._key(self.start): 0.0}
         closed: set[tuple[int, int, int, int]] = set()
-        times = self.batch.times
-        reach = self.rate * s.primitive_length_m + 1e-9
         while heap:
             if time.perf_counter() - self.began > s.time_limit_s:
                 return self._done("timeout", f"no path within the time limit of {s.time_limit_s:g} s")
@@ -204,21 +215,18 @@ class _Search:
                 continue
             closed.add(key)
             self.expanded += 1
-            # Primitives: the same direction ramps from the current steer to the targets it reaches;
-            # the other direction (at standstill) starts at any target.
-            s0: list[float] = []
-            s1: list[float] = []
-            dirs: list[int] = []
-            for d, targets in ((-1, self.reverse_targets), (1, self.forward_targets)):
-                if d == node.direction:
-                    near = targets[np.abs(targets - node.steer) <= reach]
-                    s0 += [node.steer] * len(near)
-                    s1 += list(near)
-                else:
-                    s0 += list(targets)
-                    s1 += list(targets)
-                dirs += [d] * (len(s1) - len(dirs))
-            motions = self.batch.run(node.state, np.array(s0), np.array(s1), np.array(dirs, dtype=float))
+            if self.shot is not None:
+                found = self._try_shot(nodes, index)
+                if found is not None:
+                    return self._done("found", "within the goal tolerance by a reverse run onto the goal line",
+                                      nodes, found)  # fmt: skip
+            # Forward primitives hold a front steer, reverse ones a virtual steer (Eq. 45). The steer carries
+            # on within a direction; at a change of direction (at standstill) it is set to what the command
+            # asks at once.
+            dirs = self.directions
+            steer0 = self.batch.initial_steer(float(node.state[3]), self.commands, dirs)
+            steer0[dirs == node.direction] = node.steer
+            motions = self.batch.run(node.state, steer0, self.commands, dirs)
             ok = np.all(np.abs(motions[:, 1:, 3]) <= self.hitch_limit, axis=1) & np.all(
                 np.isfinite(motions), axis=(1, 2)
             )
@@ -226,10 +234,8 @@ class _Search:
             if not ok.any():
                 continue
             candidates = np.flatnonzero(ok)
-            motions = motions[candidates]
-            steers = steer_profile(
-                np.array(s0)[candidates, None], np.array(s1)[candidates, None], self.rate, times[None, :]
-            )
+            steers = motions[candidates, :, 4]
+            motions = motions[candidates, :, :4]
             arrived = self._at_goal(motions[:, 1:, :])
             trailer_steps = np.hypot(np.diff(motions[:, :, 0], axis=1), np.diff(motions[:, :, 1], axis=1))
             for hit in np.flatnonzero(arrived.any(axis=1)):
@@ -250,7 +256,7 @@ class _Search:
                 g += length * (
                     s.weight_steer * float(np.abs(steers[row, 1:]).mean()) + s.weight_hitch * abs(ends[row, 3])
                 )
-                g += s.weight_steer_change * abs(end_steer - node.steer)
+                g += s.weight_steer_change * abs(end_steer - float(steers[row, 0]))
                 if node.direction != 0 and d != node.direction:
                     g += s.weight_switch
                 child_key = self._key(ends[row])
@@ -262,6 +268,45 @@ class _Search:
             if len(nodes) > MAX_NODES:
                 return self._done("timeout", f"the search passed {MAX_NODES} nodes")
         return self._done("no_path", "the search space is exhausted: no path reaches the goal tolerance")
+
+    def _try_shot(self, nodes: list[_Node], index: int) -> int | None:
+        """End-game from node ``index``: reverse runs onto the goal line; the new goal node's index if one lands."""
+        assert self.shot is not None
+        node, s, goal = nodes[index], self.settings, self.goal
+        gx, gy, gyaw = (float(v) for v in to_goal_frame(goal, node.state[0], node.state[1], node.state[2]))
+        if gx <= 0.0 or abs(gyaw) >= math.pi / 2 or math.hypot(gx, gy) > s.shot_length_m:
+            return None
+        steer = node.steer
+        if node.direction != -1:  # at standstill: the steer the run asks first (virtual steer 0 as a stand-in)
+            steer = float(self.batch.initial_steer(float(node.state[3]), np.zeros(1), -np.ones(1))[0])
+        runs = self.shot.run(np.array([gx, gy, gyaw, node.state[3], steer]), s.virtual_limit)
+        c, sn = math.cos(goal.yaw), math.sin(goal.yaw)
+        for run in runs:
+            arrived = self._at_goal_frame(run[1:])
+            if not arrived.any():
+                continue
+            k = int(np.argmax(arrived)) + 1
+            part = run[: k + 1]
+            if np.any(np.abs(part[1:, 3]) > self.hitch_limit) or not np.all(np.isfinite(part)):
+                continue
+            world = part[:, :4].copy()
+            world[:, 0] = goal.x + c * part[:, 0] - sn * part[:, 1]
+            world[:, 1] = goal.y + sn * part[:, 0] + c * part[:, 1]
+            world[:, 2] = part[:, 2] + goal.yaw
+            if not self._clear(world[None])[0]:
+                continue
+            nodes.append(_Node(world[-1], float(part[-1, 4]), -1, 0.0, index, world[1:], part[1:, 4]))
+            if self._confirmed(nodes, len(nodes) - 1):
+                return len(nodes) - 1
+        return None
+
+    def _at_goal_frame(self, states: np.ndarray) -> np.ndarray:
+        s = self.settings
+        return (
+            (np.hypot(states[:, 0], states[:, 1]) <= s.goal_tolerance_m)
+            & (np.abs(wrap_angle(states[:, 2])) <= s.goal_tolerance_yaw)
+            & (np.abs(states[:, 3]) <= s.goal_tolerance_hitch)
+        )
 
     def _confirmed(self, nodes: list[_Node], last: int) -> bool:
         """The exact swept clearance of the path ending at node ``last`` keeps ``min_clearance_m``."""

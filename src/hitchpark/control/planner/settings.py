@@ -40,15 +40,23 @@ class PlannerSettings:
         Rear-axle distance between the samples of a primitive [m]; one RK4 step of the full model per
         sample, the hitch limit and the collision approximation checked at each.
     steer_samples : int
-        Steer angles a primitive may end at, evenly over +-``max_steer`` (reverse) or over +-the forward
-        cap of :func:`~hitchpark.control.pure_pursuit.forward_steer_limit` (forward); odd counts include
-        straight ahead. Within a direction the steer ramps from the previous primitive's at
-        ``max_steer_rate``, so only the targets it reaches within the primitive are tried; at a change of
-        direction (at standstill) every target is.
+        Commands per direction, evenly spread (odd counts include straight ahead): forward, front steers
+        over +-the cap of :func:`~hitchpark.control.pure_pursuit.forward_steer_limit` (forward motion
+        cannot jackknife); in reverse, virtual steers over +-``virtual_limit``, the front steer following
+        from Eq. (45) (:mod:`~hitchpark.control.planner.motion`). The front steer moves towards the
+        command at most ``max_steer_rate``; at a change of direction it is set at standstill.
+    virtual_limit : float
+        Largest virtual steer of the reverse primitives [rad] (the paper's NMPC bound, 0.5 rad: a
+        trailer-axle radius of about 5 m on Table 4).
     hitch_margin : float
         The hitch stays within ``max_hitch - hitch_margin`` at every sample [rad].
     time_limit_s : float
         Wall-clock budget [s]; past it the result is ``timeout``.
+    shot_length_m : float
+        End-game: from every node expanded within this trailer-axle distance of the goal, behind it and
+        facing it within 90 deg, reverse runs onto the goal line (pure pursuit of the trailer by its virtual
+        steer, look-aheads 2.5, 4 and 6 m) are tried for this length [m]; one that reaches the goal
+        tolerance ends the search (0: no shots).
     goal_tolerance_m, goal_tolerance_yaw, goal_tolerance_hitch : float
         The search ends at the first sample within these of the goal: trailer-axle distance [m], heading
         [rad], hitch angle [rad]. The last centimetres are left to the tracking NMPC.
@@ -73,6 +81,9 @@ class PlannerSettings:
         Heuristic cost per radian of heading error [m/rad], added to the trailer-axle distance to the goal.
     heuristic_hitch_m : float
         Heuristic cost per radian of hitch angle [m/rad].
+    heuristic_radius_m : float
+        Turning radius of the trailer axle in the non-holonomic heuristic's table [m]
+        (:mod:`~hitchpark.control.planner.heuristic`); 0 turns the table off.
     heuristic_weight : float
         Inflation of the heuristic (1: plain A*; larger: greedier, faster, longer paths).
     """
@@ -83,8 +94,10 @@ class PlannerSettings:
     primitive_length_m: float = checked(1.0, Real(0.05, 20.0, unit="m"))
     sample_step_m: float = checked(0.1, Real(0.01, 1.0, unit="m"))
     steer_samples: int = checked(7, Integer(2, 41))
+    virtual_limit: float = checked(0.5, Real(0.0, math.pi / 2, low_open=True, high_open=True, unit="rad"))
     hitch_margin: float = checked(math.radians(5.0), Real(0.0, math.pi / 2, high_open=True, unit="rad"))
     time_limit_s: float = checked(5.0, Real(0.0, 3600.0, low_open=True, unit="s"))
+    shot_length_m: float = checked(20.0, Real(0.0, 100.0, unit="m"))
     goal_tolerance_m: float = checked(0.3, Real(0.0, 10.0, low_open=True, unit="m"))
     goal_tolerance_yaw: float = checked(math.radians(3.0), _ANGLE)
     goal_tolerance_hitch: float = checked(math.radians(3.0), _ANGLE)
@@ -99,6 +112,7 @@ class PlannerSettings:
     weight_hitch: float = checked(0.5, _WEIGHT)
     heuristic_yaw_m: float = checked(2.0, Real(0.0, 1000.0, unit="m/rad"))
     heuristic_hitch_m: float = checked(2.0, Real(0.0, 1000.0, unit="m/rad"))
+    heuristic_radius_m: float = checked(5.0, Real(0.0, 100.0, unit="m"))
     heuristic_weight: float = checked(1.5, Real(1.0, 100.0))
 
     def __post_init__(self) -> None:
