@@ -130,12 +130,13 @@ class PrimitiveBatch:
         per primitive.
         """
         n = len(command)
-        pad = self.size - n
-        x0 = np.empty((5, self.size))
+        x0 = np.zeros((5, self.size))
         x0[:4] = np.asarray(start, dtype=float)[:4, None]
-        x0[4] = np.pad(np.asarray(steer0, dtype=float), (0, pad))
-        c = np.pad(np.asarray(command, dtype=float), (0, pad))
-        d = np.pad(np.asarray(direction, dtype=float), (0, pad), constant_values=1.0)
+        x0[4, :n] = steer0
+        c = np.zeros(self.size)
+        c[:n] = command
+        d = np.ones(self.size)
+        d[:n] = direction
         out = np.asarray(self._mapped(x0, c, d))  # (5, size * (samples + 1))
         return out.reshape(5, self.size, self.samples + 1).transpose(1, 2, 0)[:n]
 

@@ -91,6 +91,7 @@ class _Search:
         reverse = np.linspace(-s.virtual_limit, s.virtual_limit, s.steer_samples)
         self.commands = np.concatenate([forward, reverse])
         self.directions = np.concatenate([np.ones(s.steer_samples), -np.ones(s.steer_samples)])
+        self.straight_back = s.steer_samples + int(np.argmin(np.abs(reverse)))  # the reverse command nearest 0
         self.batch = PrimitiveBatch(vehicle, s.primitive_length_m, s.samples, 2 * s.steer_samples)
         self.discs = Discs(vehicle)
         self.shot = GoalShot(vehicle, s.sample_step_m, s.shot_length_m, SHOT_LOOKAHEADS) if s.shot_length_m else None
@@ -129,9 +130,16 @@ class _Search:
         return (
             math.floor(state[0] / s.xy_resolution_m),
             math.floor(state[1] / s.xy_resolution_m),
-            math.floor(float(wrap_angle(state[2])) / yaw_cell) % s.yaw_bins,
+            math.floor((float(state[2]) % (2 * math.pi)) / yaw_cell) % s.yaw_bins,
             math.floor((state[3] + self.vehicle.max_hitch) / hitch_cell),
         )
+
+    def _initial_steer(self, hitch: float) -> np.ndarray:
+        """The steer each command sets at standstill: the front steer itself forward, Eq. (45) in reverse."""
+        v = self.vehicle
+        sn, c, t = math.sin(hitch), math.cos(hitch), np.tan(self.commands)
+        reverse = np.arctan(v.wheelbase / v.hitch_offset * (sn - c * t) / (c + sn * t))  # Eq. (45)
+        return np.where(self.directions > 0, self.commands, np.clip(reverse, -v.max_steer, v.max_steer))
 
     def _heuristic(self, states: np.ndarray) -> np.ndarray:
         s = self.settings
@@ -224,7 +232,7 @@ class _Search:
             # on within a direction; at a change of direction (at standstill) it is set to what the command
             # asks at once.
             dirs = self.directions
-            steer0 = self.batch.initial_steer(float(node.state[3]), self.commands, dirs)
+            steer0 = self._initial_steer(float(node.state[3]))
             steer0[dirs == node.direction] = node.steer
             motions = self.batch.run(node.state, steer0, self.commands, dirs)
             ok = np.all(np.abs(motions[:, 1:, 3]) <= self.hitch_limit, axis=1) & np.all(
@@ -248,22 +256,23 @@ class _Search:
                     return self._done("found", "within the goal tolerance", nodes, len(nodes) - 1)
             ends = motions[:, -1, :]
             h = self._heuristic(ends)
-            for row, c in enumerate(candidates):
-                d = int(dirs[c])
-                length = float(trailer_steps[row].sum())
-                end_steer = float(steers[row, -1])
-                g = node.g + length * (s.weight_forward if d > 0 else s.weight_reverse)
-                g += length * (
-                    s.weight_steer * float(np.abs(steers[row, 1:]).mean()) + s.weight_hitch * abs(ends[row, 3])
-                )
-                g += s.weight_steer_change * abs(end_steer - float(steers[row, 0]))
-                if node.direction != 0 and d != node.direction:
-                    g += s.weight_switch
+            child_dirs = dirs[candidates]
+            length = trailer_steps.sum(axis=1)
+            g_all = node.g + length * np.where(child_dirs > 0, s.weight_forward, s.weight_reverse)
+            g_all += length * (
+                s.weight_steer * np.abs(steers[:, 1:]).mean(axis=1) + s.weight_hitch * np.abs(ends[:, 3])
+            )
+            g_all += s.weight_steer_change * np.abs(steers[:, -1] - steers[:, 0])
+            if node.direction != 0:
+                g_all += s.weight_switch * (child_dirs != node.direction)
+            for row in range(len(candidates)):
+                g = float(g_all[row])
                 child_key = self._key(ends[row])
                 if child_key in closed or best_g.get(child_key, math.inf) <= g:
                     continue
                 best_g[child_key] = g
-                nodes.append(_Node(ends[row], end_steer, d, g, index, motions[row, 1:], steers[row, 1:]))
+                d = int(child_dirs[row])
+                nodes.append(_Node(ends[row], float(steers[row, -1]), d, g, index, motions[row, 1:], steers[row, 1:]))
                 heapq.heappush(heap, (g + float(h[row]), len(nodes) - 1))
             if len(nodes) > MAX_NODES:
                 return self._done("timeout", f"the search passed {MAX_NODES} nodes")
@@ -278,7 +287,7 @@ class _Search:
             return None
         steer = node.steer
         if node.direction != -1:  # at standstill: the steer the run asks first (virtual steer 0 as a stand-in)
-            steer = float(self.batch.initial_steer(float(node.state[3]), np.zeros(1), -np.ones(1))[0])
+            steer = float(self._initial_steer(float(node.state[3]))[self.straight_back])
         runs = self.shot.run(np.array([gx, gy, gyaw, node.state[3], steer]), s.virtual_limit)
         c, sn = math.cos(goal.yaw), math.sin(goal.yaw)
         for run in runs:
