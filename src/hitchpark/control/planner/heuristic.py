@@ -7,17 +7,21 @@ and straight lines, ``step`` metres long, forward and in reverse, their ends sna
 :func:`scipy.sparse.csgraph.dijkstra`). It knows that a trailer beside the goal or facing away from it
 has far to go where the Euclidean distance does not; it ignores the hitch (its own term in the search)
 and the obstacles (the holonomic heuristic of :mod:`.grid`). Built once per set of parameters and cached
-in the process (about 1 s on this machine).
+in the process and on disk (building takes about 1 s on this machine, loading a few ms).
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
 import math
+import os
 
 import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
+
+from ..compiled import cache_dir
 
 __all__ = ["TrailerTable", "trailer_table"]
 
@@ -34,11 +38,15 @@ class TrailerTable:
         step: float,
         weight_forward: float,
         weight_reverse: float,
+        cost: np.ndarray | None = None,
     ):
         xmin, ymin, xmax, ymax = extent
         self.cell, self.yaw_bins, self.origin = cell, yaw_bins, np.array([xmin, ymin])
         nx, ny = math.ceil((xmax - xmin) / cell), math.ceil((ymax - ymin) / cell)
         self.shape = (nx, ny, yaw_bins)
+        if cost is not None and cost.shape == (nx * ny * yaw_bins,):
+            self.cost = cost
+            return
         i, j, k = np.meshgrid(np.arange(nx), np.arange(ny), np.arange(yaw_bins), indexing="ij")
         x = xmin + (i.ravel() + 0.5) * cell
         y = ymin + (j.ravel() + 0.5) * cell
@@ -82,9 +90,34 @@ class TrailerTable:
         return np.where(flat >= 0, self.cost[np.maximum(flat, 0)], np.nan)
 
 
+#: Where the table spans in the parking frame [m]: xmin, ymin, xmax, ymax.
+EXTENT = (-12.0, -20.0, 28.0, 20.0)
+
+
 @functools.lru_cache(maxsize=4)
 def trailer_table(
     radius: float, cell: float, yaw_bins: int, step: float, weight_forward: float, weight_reverse: float
 ) -> TrailerTable:
-    """The table for these parameters over x -12..28 m, y -20..20 m of the parking frame, cached."""
-    return TrailerTable(radius, cell, yaw_bins, (-12.0, -20.0, 28.0, 20.0), step, weight_forward, weight_reverse)
+    """The table for these parameters over :data:`EXTENT`, cached in the process and on disk.
+
+    On disk beside the compiled solvers (:func:`~hitchpark.control.compiled.cache_dir`), keyed by the
+    parameters; a cache that cannot be read or written is recomputed, never an error.
+    """
+    args = (radius, cell, yaw_bins, EXTENT, step, weight_forward, weight_reverse)
+    key = hashlib.sha256(repr(("trailer-table-v1", *args)).encode()).hexdigest()[:20]
+    path = cache_dir() / f"planner-table-{key}.npy"
+    try:
+        table = TrailerTable(*args, cost=np.load(path))
+        if table.cost.shape == (int(np.prod(table.shape)),):
+            return table
+    except (OSError, ValueError):
+        pass
+    table = TrailerTable(*args)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npy")
+        np.save(partial, table.cost)
+        os.replace(partial, path)
+    except OSError:
+        pass
+    return table

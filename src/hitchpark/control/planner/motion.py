@@ -20,6 +20,7 @@ same RK4 vectorised in NumPy (measured on this 2-core machine).
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Callable
 
 import casadi as ca
@@ -61,13 +62,15 @@ def _rk4_columns(f: Callable[[ca.SX], ca.SX], x0: ca.SX, h: float, samples: int)
 
 
 @functools.lru_cache(maxsize=16)
-def _shot_function(vehicle: VehicleTrailer, step: float, samples: int) -> ca.Function:
-    """``F(x0[5], lookahead, virtual_limit) -> (5, samples + 1)``: a reverse run onto the goal line, goal frame.
+def _shot_function(vehicle: VehicleTrailer, step: float, runs: int, chunk: int) -> ca.Function:
+    """``F(x0 (5, runs), lookaheads (1, runs * chunk), limits) -> (5, runs * chunk)``: reverse runs onto the goal line.
 
-    Pure pursuit of the trailer axle, driven backwards, towards the point of the line y = 0 one
-    look-ahead behind it (the foot of the perpendicular when the line is farther): the virtual steer
-    with the curvature 2 sin(alpha) / l_d, alpha the bearing of that point from the backward heading,
-    within +-``virtual_limit``; the front steer from it by Eq. (45), rate-limited as in the primitives.
+    In the goal frame. Pure pursuit of the trailer axle, driven backwards, towards the point of the line
+    y = 0 one look-ahead behind it (the foot of the perpendicular when the line is farther): the virtual
+    steer with the curvature 2 sin(alpha) / l_d, alpha the bearing of that point from the backward
+    heading, within +-``virtual_limit``; the front steer from it by Eq. (45), rate-limited as in the
+    primitives. One RK4 step as a function, mapped over the runs and accumulated over ``chunk`` samples
+    (CasADi ``mapaccum``): cheap to build, and the end-game can stop after any chunk.
     """
     x0, lookahead, limit = ca.SX.sym("x0", 5), ca.SX.sym("lookahead"), ca.SX.sym("limit")
     L_T = vehicle.trailer_length
@@ -82,7 +85,8 @@ def _shot_function(vehicle: VehicleTrailer, step: float, samples: int) -> ca.Fun
         virtual = ca.fmin(ca.fmax(virtual, -limit), limit)
         return _actuated_rhs(vehicle, x, commanded_steer(vehicle, x[3], virtual, -1.0), -1.0, step)
 
-    return ca.Function("goal_shot", [x0, lookahead, limit], [_rk4_columns(rhs, x0, step, samples)])
+    one = ca.Function("shot_step", [x0, lookahead, limit], [_rk4_columns(rhs, x0, step, 1)[:, 1]])
+    return one.map(runs).mapaccum("goal_shot", chunk)
 
 
 @functools.lru_cache(maxsize=16)
@@ -144,15 +148,32 @@ class PrimitiveBatch:
 class GoalShot:
     """Reverse runs onto the goal line for several look-aheads at once (the planner's end-game)."""
 
-    def __init__(self, vehicle: VehicleTrailer, step: float, length: float, lookaheads: tuple[float, ...]):
-        vehicle.require_hitch_offset()
-        self.samples = max(1, round(length / step))
-        self.lookaheads = np.asarray(lookaheads, dtype=float)
-        self._mapped = _shot_function(vehicle, step, self.samples).map(len(lookaheads))
+    #: Samples integrated per call; a run stops being extended once every run has ended.
+    CHUNK = 40
 
-    def run(self, start: np.ndarray, limit: float) -> np.ndarray:
-        """(x, y, yaw, hitch, steer) of each run from ``start`` (5,) in the goal frame: (runs, samples + 1, 5)."""
-        n = len(self.lookaheads)
-        x0 = np.repeat(np.asarray(start, dtype=float)[:, None], n, axis=1)
-        out = np.asarray(self._mapped(x0, self.lookaheads, np.full(n, limit)))
-        return out.reshape(5, n, self.samples + 1).transpose(1, 2, 0)
+    def __init__(self, vehicle: VehicleTrailer, step: float, lookaheads: tuple[float, ...]):
+        vehicle.require_hitch_offset()
+        self.step = step
+        self.lookaheads = np.asarray(lookaheads, dtype=float)
+        self._function = _shot_function(vehicle, step, len(lookaheads), self.CHUNK)
+
+    def run(self, start: np.ndarray, limit: float, length: float, ended: Callable[[np.ndarray], bool]) -> np.ndarray:
+        """(x, y, yaw, hitch, steer) of each run from ``start`` (5,) in the goal frame: (runs, samples + 1, 5).
+
+        Integrates chunk after chunk up to ``length`` metres, and stops early once ``ended`` says of the
+        runs so far (an array like the result) that none can still arrive.
+        """
+        n, chunk = len(self.lookaheads), self.CHUNK
+        lookaheads = np.tile(self.lookaheads, chunk)[None, :]
+        limits = np.full((1, n * chunk), limit)
+        x = np.repeat(np.asarray(start, dtype=float)[:, None], n, axis=1)
+        parts = [x.T[:, None, :]]
+        for _ in range(max(1, math.ceil(length / self.step / chunk))):
+            out = np.asarray(self._function(x, lookaheads, limits))  # (5, chunk * n), sample-major
+            block = out.reshape(5, chunk, n).transpose(2, 1, 0)
+            parts.append(block)
+            x = block[:, -1, :].T
+            runs = np.concatenate(parts, axis=1)
+            if ended(runs):
+                return runs
+        return np.concatenate(parts, axis=1)

@@ -94,7 +94,7 @@ class _Search:
         self.straight_back = s.steer_samples + int(np.argmin(np.abs(reverse)))  # the reverse command nearest 0
         self.batch = PrimitiveBatch(vehicle, s.primitive_length_m, s.samples, 2 * s.steer_samples)
         self.discs = Discs(vehicle)
-        self.shot = GoalShot(vehicle, s.sample_step_m, s.shot_length_m, SHOT_LOOKAHEADS) if s.shot_length_m else None
+        self.shot = GoalShot(vehicle, s.sample_step_m, SHOT_LOOKAHEADS) if s.shot_length_m else None
         self.bounds = self._bounds()
         self.grid = DistanceGrid(scene, self.bounds, s.collision_cell_m)
         self.need = self.discs.radius + s.min_clearance_m
@@ -288,7 +288,9 @@ class _Search:
         steer = node.steer
         if node.direction != -1:  # at standstill: the steer the run asks first (virtual steer 0 as a stand-in)
             steer = float(self._initial_steer(float(node.state[3]))[self.straight_back])
-        runs = self.shot.run(np.array([gx, gy, gyaw, node.state[3], steer]), s.virtual_limit)
+        runs = self.shot.run(
+            np.array([gx, gy, gyaw, node.state[3], steer]), s.virtual_limit, s.shot_length_m, self._shots_ended
+        )
         c, sn = math.cos(goal.yaw), math.sin(goal.yaw)
         for run in runs:
             arrived = self._at_goal_frame(run[1:])
@@ -308,6 +310,15 @@ class _Search:
             if self._confirmed(nodes, len(nodes) - 1):
                 return len(nodes) - 1
         return None
+
+    def _shots_ended(self, runs: np.ndarray) -> bool:
+        """No run can still arrive: each has arrived, passed the goal, met the hitch limit or gone non-finite."""
+        last = runs[:, -1, :]
+        over = (last[:, 0] < -self.settings.goal_tolerance_m) | (np.abs(runs[:, :, 3]) > self.hitch_limit).any(axis=1)
+        over |= ~np.all(np.isfinite(last), axis=1) | self._at_goal_frame(runs[:, 1:].reshape(-1, 5)).reshape(
+            len(runs), -1
+        ).any(axis=1)
+        return bool(over.all())
 
     def _at_goal_frame(self, states: np.ndarray) -> np.ndarray:
         s = self.settings
