@@ -5,7 +5,7 @@ from __future__ import annotations
 import heapq
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -27,6 +27,9 @@ HEURISTIC_CELL_M = 0.25
 
 #: Look-aheads of the end-game's reverse runs onto the goal line [m].
 SHOT_LOOKAHEADS = (2.5, 4.0, 6.0)
+
+#: How many times a search that exhausts its grid is repeated on a grid twice as fine.
+REFINEMENTS = 2
 
 #: Cap on the nodes of one search (memory bound; the time limit usually ends a search first).
 MAX_NODES = 2_000_000
@@ -74,7 +77,22 @@ def plan(
         raise InputError(
             f"planner.hitch_margin must be < max_hitch ({vehicle.max_hitch:g} rad), got {settings.hitch_margin:g}"
         )
-    return _Search(vehicle, start, goal, scene, settings, began).run()
+    expanded = 0
+    for refinement in range(REFINEMENTS + 1):
+        search = _Search(vehicle, start, goal, scene, settings, began)
+        search.expanded = expanded
+        result = search.run()
+        expanded = result.expanded
+        if not search.exhausted or refinement == REFINEMENTS:
+            return result
+        # The grid was too coarse to hold a way through: halve every cell and search again.
+        settings = replace(
+            settings,
+            xy_resolution_m=settings.xy_resolution_m / 2,
+            yaw_bins=min(3600, settings.yaw_bins * 2),
+            hitch_bins=min(3600, settings.hitch_bins * 2),
+        )
+    return result  # pragma: no cover (the loop returns)
 
 
 class _Search:
@@ -108,6 +126,7 @@ class _Search:
         if s.heuristic_radius_m > 0:
             self.table = trailer_table(s.heuristic_radius_m, 0.5, 72, 1.0, s.weight_forward, s.weight_reverse)
         self.expanded = 0
+        self.exhausted = False  # set when the open set ran empty: nothing more at this resolution
 
     # --- set-up ------------------------------------------------------------------------------------------
 
@@ -276,14 +295,18 @@ class _Search:
                 heapq.heappush(heap, (g + float(h[row]), len(nodes) - 1))
             if len(nodes) > MAX_NODES:
                 return self._done("timeout", f"the search passed {MAX_NODES} nodes")
-        return self._done("no_path", "the search space is exhausted: no path reaches the goal tolerance")
+        self.exhausted = True
+        return self._done(
+            "no_path",
+            f"the search space is exhausted at a {s.xy_resolution_m:g} m grid: no path reaches the goal tolerance",
+        )
 
     def _try_shot(self, nodes: list[_Node], index: int) -> int | None:
         """End-game from node ``index``: reverse runs onto the goal line; the new goal node's index if one lands."""
         assert self.shot is not None
         node, s, goal = nodes[index], self.settings, self.goal
         gx, gy, gyaw = (float(v) for v in to_goal_frame(goal, node.state[0], node.state[1], node.state[2]))
-        if gx <= 0.0 or abs(gyaw) >= math.pi / 2 or math.hypot(gx, gy) > s.shot_length_m:
+        if gx <= 0.0 or abs(gyaw) > s.shot_max_heading or math.hypot(gx, gy) > s.shot_length_m:
             return None
         steer = node.steer
         if node.direction != -1:  # at standstill: the steer the run asks first (virtual steer 0 as a stand-in)

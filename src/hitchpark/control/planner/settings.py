@@ -54,9 +54,11 @@ class PlannerSettings:
         Wall-clock budget [s]; past it the result is ``timeout``.
     shot_length_m : float
         End-game: from every node expanded within this trailer-axle distance of the goal, behind it and
-        facing it within 90 deg, reverse runs onto the goal line (pure pursuit of the trailer by its virtual
-        steer, look-aheads 2.5, 4 and 6 m) are tried for this length [m]; one that reaches the goal
-        tolerance ends the search (0: no shots).
+        heading within ``shot_max_heading`` of the goal heading, reverse runs onto the goal line (pure
+        pursuit of the trailer by its virtual steer, look-aheads 2.5, 4 and 6 m) are tried for this length
+        [m]; one that reaches the goal tolerance ends the search (0: no shots).
+    shot_max_heading : float
+        See ``shot_length_m`` [rad].
     goal_tolerance_m, goal_tolerance_yaw, goal_tolerance_hitch : float
         The search ends at the first sample within these of the goal: trailer-axle distance [m], heading
         [rad], hitch angle [rad]. The last centimetres are left to the tracking NMPC.
@@ -88,16 +90,17 @@ class PlannerSettings:
         Inflation of the heuristic (1: plain A*; larger: greedier, faster, longer paths).
     """
 
-    xy_resolution_m: float = checked(0.5, Real(0.01, 10.0, unit="m"))
-    yaw_bins: int = checked(72, Integer(4, 3600))
-    hitch_bins: int = checked(28, Integer(1, 3600))
-    primitive_length_m: float = checked(1.0, Real(0.05, 20.0, unit="m"))
+    xy_resolution_m: float = checked(1.0, Real(0.01, 10.0, unit="m"))
+    yaw_bins: int = checked(36, Integer(4, 3600))
+    hitch_bins: int = checked(14, Integer(1, 3600))
+    primitive_length_m: float = checked(1.5, Real(0.05, 20.0, unit="m"))
     sample_step_m: float = checked(0.1, Real(0.01, 1.0, unit="m"))
     steer_samples: int = checked(7, Integer(2, 41))
     virtual_limit: float = checked(0.5, Real(0.0, math.pi / 2, low_open=True, high_open=True, unit="rad"))
     hitch_margin: float = checked(math.radians(5.0), Real(0.0, math.pi / 2, high_open=True, unit="rad"))
     time_limit_s: float = checked(5.0, Real(0.0, 3600.0, low_open=True, unit="s"))
     shot_length_m: float = checked(20.0, Real(0.0, 100.0, unit="m"))
+    shot_max_heading: float = checked(math.radians(90.0), Real(0.0, math.pi, unit="rad"))
     goal_tolerance_m: float = checked(0.3, Real(0.0, 10.0, low_open=True, unit="m"))
     goal_tolerance_yaw: float = checked(math.radians(3.0), _ANGLE)
     goal_tolerance_hitch: float = checked(math.radians(3.0), _ANGLE)
@@ -106,14 +109,14 @@ class PlannerSettings:
     search_margin_m: float = checked(10.0, Real(0.0, 1000.0, unit="m"))
     weight_forward: float = checked(1.0, Real(0.0, 1000.0, low_open=True))
     weight_reverse: float = checked(1.0, Real(0.0, 1000.0, low_open=True))
-    weight_switch: float = checked(5.0, _WEIGHT)
+    weight_switch: float = checked(12.0, _WEIGHT)
     weight_steer: float = checked(0.2, _WEIGHT)
     weight_steer_change: float = checked(0.5, _WEIGHT)
     weight_hitch: float = checked(0.5, _WEIGHT)
     heuristic_yaw_m: float = checked(2.0, Real(0.0, 1000.0, unit="m/rad"))
     heuristic_hitch_m: float = checked(2.0, Real(0.0, 1000.0, unit="m/rad"))
     heuristic_radius_m: float = checked(5.0, Real(0.0, 100.0, unit="m"))
-    heuristic_weight: float = checked(1.5, Real(1.0, 100.0))
+    heuristic_weight: float = checked(2.5, Real(1.0, 100.0))
 
     def __post_init__(self) -> None:
         check_fields(self, "planner.")
