@@ -1,0 +1,189 @@
+"""The fast collision approximation and the obstacle-aware heuristic of the planner.
+
+**Distance grid.** The scene is rasterised on cells of ``cell`` metres: a cell is blocked when its centre
+lies within half a cell diagonal of an obstacle or of the outside of the area, so every obstacle point
+lies in a blocked cell. The Euclidean distance transform (:func:`scipy.ndimage.distance_transform_edt`)
+of the free cells gives, at a point's cell, a distance that overestimates the true distance to the
+scene by at most one cell diagonal; :meth:`DistanceGrid.clear` subtracts that.
+
+**Outline points.** Points at most 0.25 m apart on the outlines of the vehicle and trailer bodies, the
+drawbar and the tow bar. A configuration is clear when every point is more than half the spacing,
+``min_clearance_m`` and the grid's error from the scene; a motion sample, in addition, by half the
+largest body movement to the next sample. Conservative: the exact check
+(:func:`~hitchpark.model.collision.swept_clearance`) confirms the final path. (Discs along the centre
+line were tried first: they overshoot the ends of a body by about half its width and blocked the
+driveway's goal, 0.5 m from its back fence.)
+
+**Heuristic.** The cost-to-go of the trailer axle on an 8-connected grid around the obstacles (Dijkstra
+from the goal, :func:`scipy.sparse.csgraph.dijkstra`), over cells where the axle keeps half the trailer's
+width and the clearance from the scene. It is also the quick ``no_path``: a start the goal cannot reach
+on this grid has no path.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import shapely
+from scipy import ndimage, sparse
+from scipy.sparse import csgraph
+
+from ...model.scene import Scene
+from ...model.vehicle import VehicleTrailer
+
+__all__ = ["Discs", "DistanceGrid", "HolonomicHeuristic"]
+
+#: Spacing of the points on the body outlines [m].
+POINT_SPACING = 0.25
+
+
+class Discs:
+    """Points on the outlines of the bodies, each standing for a disc of radius ``POINT_SPACING / 2``.
+
+    Body-fixed coordinates: the trailer's outline and the drawbar in the trailer frame (origin at its
+    axle, x forward), the vehicle's outline and the tow bar in the vehicle frame (origin at its rear
+    axle). Only outlines: an obstacle can only get inside a body by crossing its outline, which some
+    sample then sees (the start itself is checked exactly).
+    """
+
+    def __init__(self, vehicle: VehicleTrailer):
+        v = vehicle
+        tx, ty = _outline(-v.trailer_rear, v.trailer_front, v.trailer_width / 2)
+        dx = _segment(v.trailer_front, v.trailer_length)
+        vx, vy = _outline(-v.rear_overhang, v.wheelbase + v.front_overhang, v.vehicle_width / 2)
+        bx = _segment(-v.hitch_offset, -v.rear_overhang) if v.hitch_offset > v.rear_overhang else np.zeros(0)
+        self.trailer_x, self.trailer_y = np.concatenate([tx, dx]), np.concatenate([ty, np.zeros(len(dx))])
+        self.vehicle_x, self.vehicle_y = np.concatenate([vx, bx]), np.concatenate([vy, np.zeros(len(bx))])
+        self.radius = np.full(len(self.trailer_x) + len(self.vehicle_x), POINT_SPACING / 2)
+        self.vehicle = vehicle
+        # Largest distance of a body point from the trailer axle / from the hitch (movement bound).
+        self.reach_trailer = max(
+            math.hypot(max(v.trailer_rear, v.trailer_front), v.trailer_width / 2), v.trailer_length
+        )
+        self.reach_vehicle = math.hypot(v.hitch_offset + v.wheelbase + v.front_overhang, v.vehicle_width / 2)
+
+    def centres(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """World x, y of every point at ``states`` (..., 4): arrays of shape (..., points)."""
+        x, y, yaw, hitch = states[..., 0:1], states[..., 1:2], states[..., 2:3], states[..., 3:4]
+        c, s = np.cos(yaw), np.sin(yaw)
+        L_T, L_H = self.vehicle.trailer_length, self.vehicle.hitch_offset
+        xt, yt = x + c * self.trailer_x - s * self.trailer_y, y + s * self.trailer_x + c * self.trailer_y
+        yaw_v = yaw + hitch
+        cv, sv = np.cos(yaw_v), np.sin(yaw_v)
+        x_r, y_r = x + L_T * c + L_H * cv, y + L_T * s + L_H * sv  # rear axle, Eqs. (25)-(28)
+        xv, yv = x_r + cv * self.vehicle_x - sv * self.vehicle_y, y_r + sv * self.vehicle_x + cv * self.vehicle_y
+        return np.concatenate([xt, xv], axis=-1), np.concatenate([yt, yv], axis=-1)
+
+    def movement(self, states: np.ndarray) -> np.ndarray:
+        """Largest body-point movement [m] between consecutive samples along axis -2 of ``states`` (..., k, 4)."""
+        delta = np.diff(states, axis=-2)
+        shift = np.hypot(delta[..., 0], delta[..., 1])
+        turn_t, turn_v = np.abs(delta[..., 2]), np.abs(delta[..., 2] + delta[..., 3])
+        L_T = self.vehicle.trailer_length
+        return shift + np.maximum(turn_t * self.reach_trailer, turn_t * L_T + turn_v * self.reach_vehicle)
+
+
+def _segment(a: float, b: float) -> np.ndarray:
+    """Points from ``a`` to ``b`` (both included) at most ``POINT_SPACING`` apart."""
+    n = max(1, math.ceil(abs(b - a) / POINT_SPACING))
+    return np.linspace(a, b, n + 1)
+
+
+def _outline(back: float, front: float, half_width: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points around the rectangle [back, front] x [-half_width, half_width], at most ``POINT_SPACING`` apart."""
+    along, across = _segment(back, front), _segment(-half_width, half_width)[1:-1]
+    xs = np.concatenate([along, along, np.full(len(across), back), np.full(len(across), front)])
+    ys = np.concatenate([np.full(len(along), -half_width), np.full(len(along), half_width), across, across])
+    return xs, ys
+
+
+class DistanceGrid:
+    """Distance [m] from the scene on a grid of ``cell`` metres over ``bounds`` (xmin, ymin, xmax, ymax)."""
+
+    def __init__(self, scene: Scene, bounds: tuple[float, float, float, float], cell: float):
+        xmin, ymin, xmax, ymax = bounds
+        self.cell = cell
+        self.origin = np.array([xmin, ymin])
+        self.shape = (max(1, math.ceil((xmax - xmin) / cell)), max(1, math.ceil((ymax - ymin) / cell)))
+        self.error = cell * math.sqrt(2.0)  # the grid's distance exceeds the true one by at most this
+        if scene.is_empty:
+            self.distance = np.full(self.shape, np.inf)
+            return
+        xs = xmin + (np.arange(self.shape[0]) + 0.5) * cell
+        ys = ymin + (np.arange(self.shape[1]) + 0.5) * cell
+        gx, gy = np.meshgrid(xs, ys, indexing="ij")
+        half = cell * math.sqrt(2.0) / 2
+        blocked = np.zeros(self.shape, dtype=bool)
+        for obstacle in scene.obstacles:
+            grown = shapely.Polygon(obstacle.polygon).buffer(half)
+            blocked |= shapely.contains_xy(grown, gx, gy)
+        if scene.area is not None:
+            inner = shapely.Polygon(scene.area.boundary).buffer(-half)
+            blocked |= ~shapely.contains_xy(inner, gx, gy)
+        if blocked.any():
+            self.distance = ndimage.distance_transform_edt(~blocked) * cell
+        else:
+            self.distance = np.full(self.shape, np.inf)
+
+    def lookup(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Grid distance at world points; ``-inf`` outside the grid (out of bounds counts as blocked)."""
+        i = np.floor((x - self.origin[0]) / self.cell).astype(np.int64)
+        j = np.floor((y - self.origin[1]) / self.cell).astype(np.int64)
+        inside = (i >= 0) & (i < self.shape[0]) & (j >= 0) & (j < self.shape[1])
+        out = np.full(np.shape(x), -np.inf)
+        out[inside] = self.distance[i[inside], j[inside]]
+        return out
+
+    def clear(self, x: np.ndarray, y: np.ndarray, need: np.ndarray) -> np.ndarray:
+        """True where the true distance from the scene surely exceeds ``need`` (broadcast with x, y)."""
+        return self.lookup(x, y) - self.error > need
+
+
+class HolonomicHeuristic:
+    """Shortest 8-connected distance [m] of the trailer axle to the goal around the obstacles."""
+
+    def __init__(
+        self, grid: DistanceGrid, goal_xy: tuple[float, float], keep: float, cell: float, also_free: np.ndarray
+    ):
+        factor = max(1, round(cell / grid.cell))
+        self.cell = grid.cell * factor
+        self.origin = grid.origin
+        # A coarse cell is free when its sampled distance keeps the axle ``keep`` from the scene.
+        coarse = grid.distance[factor // 2 :: factor, factor // 2 :: factor]
+        free = coarse - grid.error >= keep - self.cell
+        self.shape = coarse.shape
+        # The goal's and the start's cells are free whatever the coarse sampling says: they are given.
+        points = np.vstack(
+            [np.asarray(goal_xy, dtype=float)[None, :], np.asarray(also_free, dtype=float).reshape(-1, 2)]
+        )
+        cells = self._index(points[:, 0], points[:, 1])
+        free.flat[cells[cells >= 0]] = True
+        nx, ny = self.shape
+        index = np.arange(nx * ny).reshape(nx, ny)
+        rows, cols, weights = [], [], []
+        for di, dj in ((1, 0), (0, 1), (1, 1), (1, -1)):
+            a = index[max(0, -di) : nx - max(0, di), max(0, -dj) : ny - max(0, dj)]
+            b = index[max(0, di) : nx + min(0, di) or None, max(0, dj) : ny + min(0, dj) or None]
+            ok = free.ravel()[a.ravel()] & free.ravel()[b.ravel()]
+            rows.append(a.ravel()[ok])
+            cols.append(b.ravel()[ok])
+            weights.append(np.full(int(ok.sum()), self.cell * math.hypot(di, dj)))
+        r, c, w = np.concatenate(rows), np.concatenate(cols), np.concatenate(weights)
+        graph = sparse.csr_matrix((w, (r, c)), shape=(nx * ny, nx * ny))
+        goal = self._index(np.array([goal_xy[0]]), np.array([goal_xy[1]]))[0]
+        if goal < 0:
+            self.cost = np.full(self.shape, np.inf)
+        else:
+            self.cost = csgraph.dijkstra(graph, directed=False, indices=int(goal)).reshape(self.shape)
+
+    def _index(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        i = np.floor((x - self.origin[0]) / self.cell).astype(np.int64)
+        j = np.floor((y - self.origin[1]) / self.cell).astype(np.int64)
+        inside = (i >= 0) & (i < self.shape[0]) & (j >= 0) & (j < self.shape[1])
+        return np.where(inside, np.clip(i, 0, self.shape[0] - 1) * self.shape[1] + np.clip(j, 0, self.shape[1] - 1), -1)
+
+    def __call__(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Cost-to-go [m] at world points (``inf`` where the goal is out of reach or off the grid)."""
+        k = self._index(np.atleast_1d(x), np.atleast_1d(y))
+        return np.where(k >= 0, self.cost.ravel()[np.maximum(k, 0)], np.inf)

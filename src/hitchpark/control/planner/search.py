@@ -1,0 +1,387 @@
+"""Hybrid A* over the trailer-axle pose and hitch angle, with primitives of the exact full model."""
+
+from __future__ import annotations
+
+import heapq
+import math
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ...checks import InputError, check_instance
+from ...model.collision import swept_clearance
+from ...model.scene import Scene
+from ...model.state import Pose, State, check_goal, check_state, to_goal_frame, wrap_angle
+from ...model.vehicle import VehicleTrailer, check_vehicle
+from ..pure_pursuit import forward_steer_limit
+from .grid import Discs, DistanceGrid, HolonomicHeuristic
+from .heuristic import TrailerTable, trailer_table
+from .motion import GoalShot, PrimitiveBatch
+from .settings import Plan, PlannerSettings
+
+__all__ = ["plan"]
+
+#: Cell of the holonomic heuristic's grid [m].
+HEURISTIC_CELL_M = 0.25
+
+#: Look-aheads of the end-game's reverse runs onto the goal line [m].
+SHOT_LOOKAHEADS = (2.5, 4.0, 6.0)
+
+#: How many times a search that exhausts its grid is repeated on a grid twice as fine.
+REFINEMENTS = 2
+
+#: Cap on the nodes of one search (memory bound; the time limit usually ends a search first).
+MAX_NODES = 2_000_000
+
+
+@dataclass
+class _Node:
+    state: np.ndarray  # (4,) end configuration
+    steer: float  # front steer at the end
+    direction: int  # +1 forward, -1 reverse, 0 for the start
+    g: float
+    parent: int
+    samples: np.ndarray  # (k, 4) configurations after the parent's end, up to and including this one
+    steers: np.ndarray  # (k,) front steer at those samples
+
+
+def plan(
+    vehicle: VehicleTrailer,
+    start: State,
+    goal: Pose | None = None,
+    scene: Scene | None = None,
+    settings: PlannerSettings | None = None,
+) -> Plan:
+    """A path from ``start`` to within the goal tolerance of ``goal`` that keeps clear of ``scene``.
+
+    Hybrid A* in (x, y, yaw) of the trailer axle and the hitch angle; each expansion integrates
+    forward and reverse primitives of the full model (Eqs. 19-24) with the steer within ``max_steer``
+    (forward: within :func:`~hitchpark.control.pure_pursuit.forward_steer_limit`, so forward motion
+    cannot jackknife), ramping at ``max_steer_rate`` within a direction, and the hitch within
+    ``max_hitch - hitch_margin`` at every sample. Collisions are screened with discs on a distance grid
+    of the scene; the path found is confirmed by the exact
+    :func:`~hitchpark.model.collision.swept_clearance` (a path that fails it is dropped and the search
+    goes on). The path ends within the goal tolerance, not exactly at the goal: the tracking NMPC
+    closes the last centimetres. Never raises for a hard problem: ``status`` says ``no_path`` or
+    ``timeout``. Bad arguments raise :class:`~hitchpark.checks.InputError`.
+    """
+    began = time.perf_counter()
+    vehicle = check_vehicle(vehicle)
+    check_state(vehicle, start)
+    goal = check_goal(goal)
+    scene = Scene() if scene is None else check_instance("scene", scene, Scene, "hitchpark.model.Scene(...)")
+    settings = PlannerSettings() if settings is None else settings
+    check_instance("settings", settings, PlannerSettings, "hitchpark.control.planner.PlannerSettings(...)")
+    if settings.hitch_margin >= vehicle.max_hitch:
+        raise InputError(
+            f"planner.hitch_margin must be < max_hitch ({vehicle.max_hitch:g} rad), got {settings.hitch_margin:g}"
+        )
+    expanded = 0
+    for refinement in range(REFINEMENTS + 1):
+        search = _Search(vehicle, start, goal, scene, settings, began)
+        search.expanded = expanded
+        result = search.run()
+        expanded = result.expanded
+        if not search.exhausted or refinement == REFINEMENTS:
+            return result
+        # The grid was too coarse to hold a way through: halve every cell and search again.
+        settings = replace(
+            settings,
+            xy_resolution_m=settings.xy_resolution_m / 2,
+            yaw_bins=min(3600, settings.yaw_bins * 2),
+            hitch_bins=min(3600, settings.hitch_bins * 2),
+        )
+    return result  # pragma: no cover (the loop returns)
+
+
+class _Search:
+    def __init__(
+        self, vehicle: VehicleTrailer, start: State, goal: Pose, scene: Scene, settings: PlannerSettings, began: float
+    ):
+        self.vehicle, self.goal, self.scene, self.settings, self.began = vehicle, goal, scene, settings, began
+        self.start = start.as_array()
+        s = settings
+        self.rate = vehicle.max_steer_rate
+        self.hitch_limit = vehicle.max_hitch - s.hitch_margin
+        cap = forward_steer_limit(vehicle)
+        forward = np.linspace(-cap, cap, s.steer_samples)
+        reverse = np.linspace(-s.virtual_limit, s.virtual_limit, s.steer_samples)
+        self.commands = np.concatenate([forward, reverse])
+        self.directions = np.concatenate([np.ones(s.steer_samples), -np.ones(s.steer_samples)])
+        self.straight_back = s.steer_samples + int(np.argmin(np.abs(reverse)))  # the reverse command nearest 0
+        self.batch = PrimitiveBatch(vehicle, s.primitive_length_m, s.samples, 2 * s.steer_samples)
+        self.discs = Discs(vehicle)
+        self.shot = GoalShot(vehicle, s.sample_step_m, SHOT_LOOKAHEADS) if s.shot_length_m else None
+        self.bounds = self._bounds()
+        self.grid = DistanceGrid(scene, self.bounds, s.collision_cell_m)
+        self.need = self.discs.radius + s.min_clearance_m
+        self.holonomic: HolonomicHeuristic | None = None
+        if not scene.is_empty:
+            keep = vehicle.trailer_width / 2 + s.min_clearance_m
+            self.holonomic = HolonomicHeuristic(
+                self.grid, (goal.x, goal.y), keep, HEURISTIC_CELL_M, self.start[None, :2]
+            )
+        self.table: TrailerTable | None = None
+        if s.heuristic_radius_m > 0:
+            self.table = trailer_table(s.heuristic_radius_m, 0.5, 72, 1.0, s.weight_forward, s.weight_reverse)
+        self.expanded = 0
+        self.exhausted = False  # set when the open set ran empty: nothing more at this resolution
+
+    # --- set-up ------------------------------------------------------------------------------------------
+
+    def _bounds(self) -> tuple[float, float, float, float]:
+        """Where the search may go: the area's box, or the start, goal and obstacles with a margin."""
+        if self.scene.area is not None:
+            lo, hi = self.scene.area.boundary.min(axis=0), self.scene.area.boundary.max(axis=0)
+            return float(lo[0]) - 1.0, float(lo[1]) - 1.0, float(hi[0]) + 1.0, float(hi[1]) + 1.0
+        points = [self.start[None, :2], np.array([[self.goal.x, self.goal.y]])]
+        points += [o.polygon for o in self.scene.obstacles]
+        allp = np.vstack(points)
+        m = self.settings.search_margin_m + self.vehicle.trailer_length + self.vehicle.wheelbase
+        lo, hi = allp.min(axis=0) - m, allp.max(axis=0) + m
+        return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+
+    def _key(self, state: np.ndarray) -> tuple[int, int, int, int]:
+        s = self.settings
+        yaw_cell = 2 * math.pi / s.yaw_bins
+        hitch_cell = 2 * self.vehicle.max_hitch / s.hitch_bins
+        return (
+            math.floor(state[0] / s.xy_resolution_m),
+            math.floor(state[1] / s.xy_resolution_m),
+            math.floor((float(state[2]) % (2 * math.pi)) / yaw_cell) % s.yaw_bins,
+            math.floor((state[3] + self.vehicle.max_hitch) / hitch_cell),
+        )
+
+    def _initial_steer(self, hitch: float) -> np.ndarray:
+        """The steer each command sets at standstill: the front steer itself forward, Eq. (45) in reverse."""
+        v = self.vehicle
+        sn, c, t = math.sin(hitch), math.cos(hitch), np.tan(self.commands)
+        reverse = np.arctan(v.wheelbase / v.hitch_offset * (sn - c * t) / (c + sn * t))  # Eq. (45)
+        return np.where(self.directions > 0, self.commands, np.clip(reverse, -v.max_steer, v.max_steer))
+
+    def _heuristic(self, states: np.ndarray) -> np.ndarray:
+        s = self.settings
+        gx, gy, gyaw = to_goal_frame(self.goal, states[:, 0], states[:, 1], states[:, 2])
+        distance = np.hypot(gx, gy)
+        if self.holonomic is not None:
+            distance = np.maximum(distance, self.holonomic(states[:, 0], states[:, 1]))
+        h = distance + s.heuristic_yaw_m * np.abs(gyaw)
+        if self.table is not None:
+            h = np.fmax(h, self.table(gx, gy, gyaw))  # nan (off the table) leaves h
+        h = h + s.heuristic_hitch_m * np.abs(states[:, 3])
+        return np.asarray(s.heuristic_weight * h, dtype=float)
+
+    def _at_goal(self, states: np.ndarray) -> np.ndarray:
+        s = self.settings
+        gx, gy, gyaw = to_goal_frame(self.goal, states[..., 0], states[..., 1], states[..., 2])
+        return (
+            (np.hypot(gx, gy) <= s.goal_tolerance_m)
+            & (np.abs(gyaw) <= s.goal_tolerance_yaw)
+            & (np.abs(states[..., 3]) <= s.goal_tolerance_hitch)
+        )
+
+    def _clear(self, states: np.ndarray) -> np.ndarray:
+        """Per primitive (n, k+1, 4): True if samples 1..k keep clear (the fast approximation)."""
+        if self.scene.is_empty:
+            x_ok = (states[:, 1:, 0] > self.bounds[0]) & (states[:, 1:, 0] < self.bounds[2])
+            y_ok = (states[:, 1:, 1] > self.bounds[1]) & (states[:, 1:, 1] < self.bounds[3])
+            return np.all(x_ok & y_ok, axis=1)
+        half_move = 0.5 * self.discs.movement(states)  # (n, k)
+        x, y = self.discs.centres(states[:, 1:, :])  # (n, k, discs)
+        ok = self.grid.clear(x, y, self.need[None, None, :] + half_move[:, :, None])
+        return np.all(ok, axis=(1, 2))
+
+    # --- search ------------------------------------------------------------------------------------------
+
+    def _done(self, status: str, detail: str, nodes: list[_Node] | None = None, last: int = -1) -> Plan:
+        path: dict[str, np.ndarray] = {}
+        switches, length = 0, 0.0
+        if nodes is not None:
+            path = self._path(nodes, last)
+            d = path["direction"]
+            switches = int(np.count_nonzero(d[1:] != d[:-1]))
+            length = float(path["s"][-1])
+        return Plan(
+            status=status,
+            path=path,
+            direction_switches=switches,
+            length_m=length,
+            planning_s=time.perf_counter() - self.began,
+            expanded=self.expanded,
+            detail=detail,
+        )
+
+    def run(self) -> Plan:
+        s = self.settings
+        scene_empty = self.scene.is_empty
+        if not scene_empty:
+            exact, _ = swept_clearance(self.vehicle, self.scene, self.start[None, :])
+            if exact < s.min_clearance_m:
+                return self._done("no_path", f"the start keeps only {exact:.3g} m from the scene")
+            goal_state = np.array([[[self.goal.x, self.goal.y, self.goal.yaw, 0.0]] * 2])
+            if not self._clear(goal_state)[0]:
+                return self._done("no_path", "the goal is blocked: the bodies at the goal do not keep clear")
+            assert self.holonomic is not None
+            if not np.isfinite(self.holonomic(self.start[:1], self.start[1:2])[0]):
+                return self._done("no_path", "the goal cannot be reached from the start around the obstacles")
+        if self._at_goal(self.start)[()]:
+            nodes = [_Node(self.start, 0.0, -1, 0.0, -1, np.zeros((0, 4)), np.zeros(0))]
+            return self._done("found", "the start is within the goal tolerance", nodes, 0)
+        nodes = [_Node(self.start, 0.0, 0, 0.0, -1, np.zeros((0, 4)), np.zeros(0))]
+        heap: list[tuple[float, int]] = [(float(self._heuristic(self.start[None, :])[0]), 0)]
+        best_g: dict[tuple[int, int, int, int], float] = {self._key(self.start): 0.0}
+        closed: set[tuple[int, int, int, int]] = set()
+        while heap:
+            if time.perf_counter() - self.began > s.time_limit_s:
+                return self._done("timeout", f"no path within the time limit of {s.time_limit_s:g} s")
+            _, index = heapq.heappop(heap)
+            node = nodes[index]
+            key = self._key(node.state)
+            if key in closed:
+                continue
+            closed.add(key)
+            self.expanded += 1
+            if self.shot is not None:
+                found = self._try_shot(nodes, index)
+                if found is not None:
+                    return self._done("found", "within the goal tolerance by a reverse run onto the goal line",
+                                      nodes, found)  # fmt: skip
+            # Forward primitives hold a front steer, reverse ones a virtual steer (Eq. 45). The steer carries
+            # on within a direction; at a change of direction (at standstill) it is set to what the command
+            # asks at once.
+            dirs = self.directions
+            steer0 = self._initial_steer(float(node.state[3]))
+            steer0[dirs == node.direction] = node.steer
+            motions = self.batch.run(node.state, steer0, self.commands, dirs)
+            ok = np.all(np.abs(motions[:, 1:, 3]) <= self.hitch_limit, axis=1) & np.all(
+                np.isfinite(motions), axis=(1, 2)
+            )
+            ok &= self._clear(motions)
+            if not ok.any():
+                continue
+            candidates = np.flatnonzero(ok)
+            steers = motions[candidates, :, 4]
+            motions = motions[candidates, :, :4]
+            arrived = self._at_goal(motions[:, 1:, :])
+            trailer_steps = np.hypot(np.diff(motions[:, :, 0], axis=1), np.diff(motions[:, :, 1], axis=1))
+            for hit in np.flatnonzero(arrived.any(axis=1)):
+                k = int(np.argmax(arrived[hit])) + 1
+                c = candidates[hit]
+                goal_node = _Node(motions[hit, k], float(steers[hit, k]), dirs[c], 0.0, index,
+                                  motions[hit, 1 : k + 1], steers[hit, 1 : k + 1])  # fmt: skip
+                nodes.append(goal_node)
+                if self._confirmed(nodes, len(nodes) - 1):
+                    return self._done("found", "within the goal tolerance", nodes, len(nodes) - 1)
+            ends = motions[:, -1, :]
+            h = self._heuristic(ends)
+            child_dirs = dirs[candidates]
+            length = trailer_steps.sum(axis=1)
+            g_all = node.g + length * np.where(child_dirs > 0, s.weight_forward, s.weight_reverse)
+            g_all += length * (
+                s.weight_steer * np.abs(steers[:, 1:]).mean(axis=1) + s.weight_hitch * np.abs(ends[:, 3])
+            )
+            g_all += s.weight_steer_change * np.abs(steers[:, -1] - steers[:, 0])
+            if node.direction != 0:
+                g_all += s.weight_switch * (child_dirs != node.direction)
+            for row in range(len(candidates)):
+                g = float(g_all[row])
+                child_key = self._key(ends[row])
+                if child_key in closed or best_g.get(child_key, math.inf) <= g:
+                    continue
+                best_g[child_key] = g
+                d = int(child_dirs[row])
+                nodes.append(_Node(ends[row], float(steers[row, -1]), d, g, index, motions[row, 1:], steers[row, 1:]))
+                heapq.heappush(heap, (g + float(h[row]), len(nodes) - 1))
+            if len(nodes) > MAX_NODES:
+                return self._done("timeout", f"the search passed {MAX_NODES} nodes")
+        self.exhausted = True
+        return self._done(
+            "no_path",
+            f"the search space is exhausted at a {s.xy_resolution_m:g} m grid: no path reaches the goal tolerance",
+        )
+
+    def _try_shot(self, nodes: list[_Node], index: int) -> int | None:
+        """End-game from node ``index``: reverse runs onto the goal line; the new goal node's index if one lands."""
+        assert self.shot is not None
+        node, s, goal = nodes[index], self.settings, self.goal
+        gx, gy, gyaw = (float(v) for v in to_goal_frame(goal, node.state[0], node.state[1], node.state[2]))
+        if gx <= 0.0 or abs(gyaw) > s.shot_max_heading or math.hypot(gx, gy) > s.shot_length_m:
+            return None
+        steer = node.steer
+        if node.direction != -1:  # at standstill: the steer the run asks first (virtual steer 0 as a stand-in)
+            steer = float(self._initial_steer(float(node.state[3]))[self.straight_back])
+        runs = self.shot.run(
+            np.array([gx, gy, gyaw, node.state[3], steer]), s.virtual_limit, s.shot_length_m, self._shots_ended
+        )
+        c, sn = math.cos(goal.yaw), math.sin(goal.yaw)
+        for run in runs:
+            arrived = self._at_goal_frame(run[1:])
+            if not arrived.any():
+                continue
+            k = int(np.argmax(arrived)) + 1
+            part = run[: k + 1]
+            if np.any(np.abs(part[1:, 3]) > self.hitch_limit) or not np.all(np.isfinite(part)):
+                continue
+            world = part[:, :4].copy()
+            world[:, 0] = goal.x + c * part[:, 0] - sn * part[:, 1]
+            world[:, 1] = goal.y + sn * part[:, 0] + c * part[:, 1]
+            world[:, 2] = part[:, 2] + goal.yaw
+            if not self._clear(world[None])[0]:
+                continue
+            nodes.append(_Node(world[-1], float(part[-1, 4]), -1, 0.0, index, world[1:], part[1:, 4]))
+            if self._confirmed(nodes, len(nodes) - 1):
+                return len(nodes) - 1
+        return None
+
+    def _shots_ended(self, runs: np.ndarray) -> bool:
+        """No run can still arrive: each has arrived, passed the goal, met the hitch limit or gone non-finite."""
+        last = runs[:, -1, :]
+        over = (last[:, 0] < -self.settings.goal_tolerance_m) | (np.abs(runs[:, :, 3]) > self.hitch_limit).any(axis=1)
+        over |= ~np.all(np.isfinite(last), axis=1) | self._at_goal_frame(runs[:, 1:].reshape(-1, 5)).reshape(
+            len(runs), -1
+        ).any(axis=1)
+        return bool(over.all())
+
+    def _at_goal_frame(self, states: np.ndarray) -> np.ndarray:
+        s = self.settings
+        return (
+            (np.hypot(states[:, 0], states[:, 1]) <= s.goal_tolerance_m)
+            & (np.abs(wrap_angle(states[:, 2])) <= s.goal_tolerance_yaw)
+            & (np.abs(states[:, 3]) <= s.goal_tolerance_hitch)
+        )
+
+    def _confirmed(self, nodes: list[_Node], last: int) -> bool:
+        """The exact swept clearance of the path ending at node ``last`` keeps ``min_clearance_m``."""
+        if self.scene.is_empty:
+            return True
+        states = self._path(nodes, last)
+        configs = np.column_stack([states[k] for k in ("x_trailer", "y_trailer", "yaw_trailer", "hitch")])
+        bound, _ = swept_clearance(self.vehicle, self.scene, configs)
+        return bound >= self.settings.min_clearance_m
+
+    def _path(self, nodes: list[_Node], last: int) -> dict[str, np.ndarray]:
+        chain = []
+        i = last
+        while i >= 0:
+            chain.append(nodes[i])
+            i = nodes[i].parent
+        chain.reverse()
+        parts = [c for c in chain[1:] if len(c.samples)]
+        states = np.vstack([self.start[None, :]] + [c.samples for c in parts])
+        first_direction = parts[0].direction if parts else -1
+        first_steer = parts[0].steers[0] if parts else 0.0
+        steer = np.concatenate([[first_steer]] + [c.steers for c in parts])
+        direction = np.concatenate([[first_direction]] + [np.full(len(c.samples), c.direction) for c in parts])
+        steps = np.hypot(np.diff(states[:, 0]), np.diff(states[:, 1]))
+        dt = self.settings.primitive_length_m / self.settings.samples
+        return {
+            "x_trailer": states[:, 0],
+            "y_trailer": states[:, 1],
+            "yaw_trailer": states[:, 2],
+            "hitch": states[:, 3],
+            "front_steer": steer,
+            "direction": direction.astype(float),
+            "s": np.concatenate([[0.0], np.cumsum(steps)]),
+            "t": np.arange(len(states)) * dt,
+        }

@@ -1,0 +1,179 @@
+"""Settings of the path planner and its result."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ...checks import InputError, Integer, Real, check_fields, checked
+
+__all__ = ["PATH_COLUMNS", "STATUSES", "Plan", "PlannerSettings"]
+
+#: What :attr:`Plan.status` can be.
+STATUSES = ("found", "no_path", "timeout")
+
+#: The columns of :attr:`Plan.path`, one row per sample of the path.
+PATH_COLUMNS = ("x_trailer", "y_trailer", "yaw_trailer", "hitch", "front_steer", "direction", "s", "t")
+
+_ANGLE = Real(0.0, math.pi, low_open=True, unit="rad")
+_WEIGHT = Real(0.0, 1000.0)
+
+
+@dataclass(frozen=True)
+class PlannerSettings:
+    """How the Hybrid A* planner searches (:func:`~hitchpark.control.planner.plan`).
+
+    Parameters
+    ----------
+    xy_resolution_m : float
+        Cell size of the search grid in x and y [m]: one node is kept per cell, heading bin and hitch bin.
+    yaw_bins : int
+        Heading bins over a full turn.
+    hitch_bins : int
+        Hitch-angle bins over +-``max_hitch``.
+    primitive_length_m : float
+        Rear-axle distance one motion primitive drives [m] (at 1 m/s, its duration in seconds).
+    sample_step_m : float
+        Rear-axle distance between the samples of a primitive [m]; one RK4 step of the full model per
+        sample, the hitch limit and the collision approximation checked at each.
+    steer_samples : int
+        Commands per direction, evenly spread (odd counts include straight ahead): forward, front steers
+        over +-the cap of :func:`~hitchpark.control.pure_pursuit.forward_steer_limit` (forward motion
+        cannot jackknife); in reverse, virtual steers over +-``virtual_limit``, the front steer following
+        from Eq. (45) (:mod:`~hitchpark.control.planner.motion`). The front steer moves towards the
+        command at most ``max_steer_rate``; at a change of direction it is set at standstill.
+    virtual_limit : float
+        Largest virtual steer of the reverse primitives [rad] (the paper's NMPC bound, 0.5 rad: a
+        trailer-axle radius of about 5 m on Table 4).
+    hitch_margin : float
+        The hitch stays within ``max_hitch - hitch_margin`` at every sample [rad].
+    time_limit_s : float
+        Wall-clock budget [s]; past it the result is ``timeout``.
+    shot_length_m : float
+        End-game: from every node expanded within this trailer-axle distance of the goal, behind it and
+        heading within ``shot_max_heading`` of the goal heading, reverse runs onto the goal line (pure
+        pursuit of the trailer by its virtual steer, look-aheads 2.5, 4 and 6 m) are tried for this length
+        [m]; one that reaches the goal tolerance ends the search (0: no shots).
+    shot_max_heading : float
+        See ``shot_length_m`` [rad].
+    goal_tolerance_m, goal_tolerance_yaw, goal_tolerance_hitch : float
+        The search ends at the first sample within these of the goal: trailer-axle distance [m], heading
+        [rad], hitch angle [rad]. The last centimetres are left to the tracking NMPC.
+    min_clearance_m : float
+        Least distance [m] of every body from every obstacle and from the area's boundary.
+    collision_cell_m : float
+        Cell of the obstacle distance grid [m] (the fast check's error is about 1.5 cells, counted against
+        it: a finer cell lets the search pass closer).
+    search_margin_m : float
+        Without an area, how far beyond the start, the goal and the obstacles the search may go [m].
+    weight_forward, weight_reverse : float
+        Cost per metre of trailer-axle path driven forward / in reverse.
+    weight_switch : float
+        Cost of a change of direction [m of path].
+    weight_steer : float
+        Cost per metre and radian of |steer|.
+    weight_steer_change : float
+        Cost per radian of steer change between primitives.
+    weight_hitch : float
+        Cost per metre and radian of |hitch|.
+    heuristic_yaw_m : float
+        Heuristic cost per radian of heading error [m/rad], added to the trailer-axle distance to the goal.
+    heuristic_hitch_m : float
+        Heuristic cost per radian of hitch angle [m/rad].
+    heuristic_radius_m : float
+        Turning radius of the trailer axle in the non-holonomic heuristic's table [m]
+        (:mod:`~hitchpark.control.planner.heuristic`); 0 turns the table off.
+    heuristic_weight : float
+        Inflation of the heuristic (1: plain A*; larger: greedier, faster, longer paths).
+    """
+
+    xy_resolution_m: float = checked(1.0, Real(0.01, 10.0, unit="m"))
+    yaw_bins: int = checked(36, Integer(4, 3600))
+    hitch_bins: int = checked(14, Integer(1, 3600))
+    primitive_length_m: float = checked(1.5, Real(0.05, 20.0, unit="m"))
+    sample_step_m: float = checked(0.1, Real(0.01, 1.0, unit="m"))
+    steer_samples: int = checked(7, Integer(2, 41))
+    virtual_limit: float = checked(0.5, Real(0.0, math.pi / 2, low_open=True, high_open=True, unit="rad"))
+    hitch_margin: float = checked(math.radians(5.0), Real(0.0, math.pi / 2, high_open=True, unit="rad"))
+    time_limit_s: float = checked(5.0, Real(0.0, 3600.0, low_open=True, unit="s"))
+    shot_length_m: float = checked(20.0, Real(0.0, 100.0, unit="m"))
+    shot_max_heading: float = checked(math.radians(90.0), Real(0.0, math.pi, unit="rad"))
+    goal_tolerance_m: float = checked(0.3, Real(0.0, 10.0, low_open=True, unit="m"))
+    goal_tolerance_yaw: float = checked(math.radians(3.0), _ANGLE)
+    goal_tolerance_hitch: float = checked(math.radians(3.0), _ANGLE)
+    min_clearance_m: float = checked(0.2, Real(0.0, 10.0, unit="m"))
+    collision_cell_m: float = checked(0.1, Real(0.02, 1.0, unit="m"))
+    search_margin_m: float = checked(10.0, Real(0.0, 1000.0, unit="m"))
+    weight_forward: float = checked(1.0, Real(0.0, 1000.0, low_open=True))
+    weight_reverse: float = checked(1.0, Real(0.0, 1000.0, low_open=True))
+    weight_switch: float = checked(12.0, _WEIGHT)
+    weight_steer: float = checked(0.2, _WEIGHT)
+    weight_steer_change: float = checked(0.5, _WEIGHT)
+    weight_hitch: float = checked(0.5, _WEIGHT)
+    heuristic_yaw_m: float = checked(2.0, Real(0.0, 1000.0, unit="m/rad"))
+    heuristic_hitch_m: float = checked(2.0, Real(0.0, 1000.0, unit="m/rad"))
+    heuristic_radius_m: float = checked(5.0, Real(0.0, 100.0, unit="m"))
+    heuristic_weight: float = checked(2.5, Real(1.0, 100.0))
+
+    def __post_init__(self) -> None:
+        check_fields(self, "planner.")
+        if self.sample_step_m > self.primitive_length_m:
+            raise InputError(
+                f"planner.sample_step_m must be <= planner.primitive_length_m ({self.primitive_length_m:g} m), "
+                f"got {self.sample_step_m:g}"
+            )
+        if self.primitive_length_m / self.sample_step_m > 1000:
+            raise InputError("planner.primitive_length_m / planner.sample_step_m must be at most 1000 samples")
+
+    @property
+    def samples(self) -> int:
+        """Samples (RK4 steps) per primitive."""
+        return max(1, round(self.primitive_length_m / self.sample_step_m))
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What :func:`~hitchpark.control.planner.plan` found.
+
+    ``status``: ``"found"`` (``path`` ends within the goal tolerance and passed the exact swept clearance
+    check), ``"no_path"`` (nothing reaches the goal: the search space was exhausted, or the goal or start
+    is blocked), ``"timeout"`` (the time limit passed first). ``path`` maps :data:`PATH_COLUMNS` to
+    equal-length arrays (empty unless found), world frame, SI units, radians: the trailer-axle pose, the
+    hitch angle, the front steer at that sample, the direction of the motion into it (+1 forward, -1
+    reverse; the first row takes the first motion's), ``s`` the trailer-axle arc length [m] and ``t`` the
+    time at 1 m/s of the rear axle [s] (steering at standstill at a change of direction takes none).
+    ``direction_switches``: changes of direction along the path; ``length_m``: trailer-axle path length;
+    ``planning_s``: wall-clock time; ``expanded``: nodes expanded; ``detail``: why, in words.
+    """
+
+    status: str
+    path: dict[str, np.ndarray] = field(default_factory=dict)
+    direction_switches: int = 0
+    length_m: float = 0.0
+    planning_s: float = 0.0
+    expanded: int = 0
+    detail: str = ""
+
+    @property
+    def found(self) -> bool:
+        return self.status == "found"
+
+    @property
+    def states(self) -> np.ndarray:
+        """The path's configurations, rows (x_trailer, y_trailer, yaw_trailer, hitch)."""
+        if not self.path:
+            return np.zeros((0, 4))
+        return np.column_stack([self.path[k] for k in PATH_COLUMNS[:4]])
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            "status": self.status,
+            "direction_switches": self.direction_switches,
+            "length_m": self.length_m,
+            "planning_s": self.planning_s,
+            "expanded": self.expanded,
+            "detail": self.detail,
+        }
