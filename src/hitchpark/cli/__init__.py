@@ -1,0 +1,191 @@
+"""The ``hitchpark`` command: parses, calls the library, prints. No logic of its own."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from ..checks import InputError
+from .arguments import (
+    EXIT_BAD_INPUT,
+    EXIT_INTERRUPTED,
+    UsageError,
+    _add_plant_option,
+    _add_vehicle_options,
+    _Parser,
+    one_line,
+    parse_goal,
+    parse_start,
+    vehicle_from_args,
+)
+from .commands import IK_STUDY_FILES, _cmd_ik_study, _cmd_park, _cmd_plot, _cmd_reproduce, _cmd_simulate, _cmd_sweep
+
+__all__ = [
+    "EXIT_BAD_INPUT",
+    "EXIT_INTERRUPTED",
+    "IK_STUDY_FILES",
+    "UsageError",
+    "build_parser",
+    "main",
+    "one_line",
+    "parse_goal",
+    "parse_start",
+    "vehicle_from_args",
+]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="hitchpark",
+        description="Reverse parking of a car with a trailer: kinematics, inverse kinematics, NMPC (Cao et al. 2025).",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser, metavar="COMMAND")
+
+    p = sub.add_parser(
+        "simulate",
+        help="drive the full model with a constant speed and steer",
+        description="Drive the full vehicle-trailer model (Eqs. 19-24) with a constant rear-axle speed and front "
+        "steer, and save the trajectory as JSON (SI units, radians).",
+    )
+    p.add_argument("--start", required=True, metavar="X,Y,YAW_DEG,HITCH_DEG", help="trailer-axle pose and hitch angle")
+    p.add_argument("--speed", required=True, type=float, metavar="V", help="rear-axle speed V_R [m/s], < 0 reverses")
+    p.add_argument("--steer", required=True, type=float, metavar="DEG", help="front steer [deg], within max_steer")
+    p.add_argument("--duration", required=True, type=float, metavar="T", help="duration [s]")
+    p.add_argument("--dt", type=float, default=0.1, metavar="S", help="sample time of the record [s] (default 0.1)")
+    _add_vehicle_options(p)
+    p.add_argument("--json", required=True, metavar="FILE", help="where to write the trajectory")
+    p.set_defaults(func=_cmd_simulate)
+
+    p = sub.add_parser(
+        "ik-study",
+        help="the inverse-kinematics validation study (Figs. 3-4)",
+        description="Feed a desired virtual-steer profile through Eq. (45) into the full model (Table 2 vehicle), "
+        "read it back with Eq. (46), and compare the trailer with the trailer-only model.",
+    )
+    p.add_argument("--out", required=True, metavar="DIR", help="folder for ik_study.json and .png")
+    p.add_argument("--speed", type=float, default=-1.0, metavar="V", help="rear-axle speed [m/s] (default -1)")
+    p.add_argument("--no-plots", action="store_true", help="write the JSON only")
+    p.set_defaults(func=_cmd_ik_study)
+
+    p = sub.add_parser(
+        "reproduce",
+        help="run the paper's four scenarios (Section 6.1, Table 5)",
+        description="Park from the four shipped scenarios (parallel, parallel with hitch angle, perpendicular, "
+        "random) with the 3-stage process, print Table 5, and write DIR/summary.json and, per scenario, "
+        "DIR/NAME/maneuver.json with figures (Figs. 8-15) and an animation. Exit status 1 if any fails to park.",
+    )
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    _add_plant_option(p, "instead of the paper's ideal plant")
+    p.add_argument("--no-plots", action="store_true", help="write JSON only (no figures, no animation)")
+    p.set_defaults(func=_cmd_reproduce)
+
+    p = sub.add_parser(
+        "park",
+        help="park from one start pose",
+        description="Park the trailer from one start: reverse NMPC, and forward pure pursuit and reverse again as "
+        "needed, on a simulated car (--plant), and write DIR/maneuver.json"
+        ", figures and an animation. Exit status 1 if it does not park.",
+    )
+    p.add_argument("--start", metavar="X,Y,YAW_DEG,HITCH_DEG", help="trailer-axle pose and hitch angle (world frame)")
+    p.add_argument("--goal", metavar="X,Y,YAW_DEG", help="goal trailer-axle pose (default 0,0,0 or the scenario's)")
+    p.add_argument("--scenario", type=Path, metavar="FILE.toml", help="scenario file; --start/--goal override it")
+    _add_vehicle_options(p)
+    _add_plant_option(p, "(default: the scenario's [plant], else the realistic car)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.add_argument("--no-plots", action="store_true", help="write maneuver.json only")
+    p.set_defaults(func=_cmd_park)
+
+    p = sub.add_parser(
+        "plot",
+        help="re-plot a saved maneuver.json",
+        description="Draw the figures and the animation of a saved maneuver without re-running it.",
+    )
+    p.add_argument("maneuver", type=Path, metavar="MANEUVER.json", help="a maneuver.json written by park/reproduce")
+    p.add_argument("--out", metavar="DIR", help="output folder (default: beside the JSON)")
+    p.add_argument("--no-animation", action="store_true", help="figures only")
+    p.set_defaults(func=_cmd_plot)
+
+    p = sub.add_parser(
+        "sweep",
+        help="park from many random starts and map where it succeeds",
+        description="Park from N starts drawn uniformly from a region of the parking frame (goal at the origin, "
+        "heading 0) with a seeded generator, one JSON line per case in --out as each finishes. Run again with "
+        "the same --out to resume: finished cases are kept, only the missing ones run. Exit status 0 when every "
+        "case ran, parked or not.",
+    )
+    p.add_argument("--n", required=True, type=int, metavar="N", help="number of starts (cases)")
+    p.add_argument("--seed", required=True, type=int, metavar="S", help="seed of the random starts (>= 0)")
+    p.add_argument(
+        "--region",
+        metavar="x=LO:HI,y=LO:HI,yaw=LO:HI,hitch=LO:HI",
+        help="ranges of the trailer-axle x, y [m], yaw [deg] and hitch angle [deg]; a key left out keeps its "
+        "default (x=4:16,y=-8:8,yaw=-90:90,hitch=-30:30)",
+    )
+    p.add_argument(
+        "--settings", type=Path, metavar="FILE.toml", help="maneuver settings: [nmpc], [forward], [success] tables"
+    )
+    p.add_argument(
+        "--plant",
+        type=Path,
+        metavar="FILE.toml",
+        help="the simulated car: PlantSettings fields at the top level or under [plant] (default: the realistic car)",
+    )
+    _add_vehicle_options(p)
+    p.add_argument("--workers", type=int, metavar="K", help="worker processes (default: one per core)")
+    p.add_argument(
+        "--dask",
+        metavar="local|ADDRESS",
+        help="run on Dask: 'local' starts a LocalCluster of --workers processes, an address joins a scheduler",
+    )
+    p.add_argument("--out", required=True, metavar="FILE.jsonl", help="one JSON record per case")
+    p.add_argument("--json", metavar="SUMMARY.json", help="write the summary here")
+    p.add_argument("--map", metavar="FILE.png", help="draw the outcome over the start positions")
+    p.set_defaults(func=_cmd_sweep)
+    return parser
+
+
+def _interrupted(args: argparse.Namespace) -> str:
+    """The one line printed on Ctrl-C; a sweep says where its finished cases are."""
+    if args.command == "sweep":
+        return f"hitchpark sweep: interrupted; the finished cases stay in {args.out}, the same command resumes"
+    return f"hitchpark {args.command}: interrupted"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line ``argv``; return the exit status.
+
+    0 on success, 1 when a maneuver does not park, 2 on bad input, 130 on Ctrl-C (SIGINT).
+    """
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    from ..interrupts import Interrupts, caused_by_interrupt
+
+    interrupts = Interrupts()
+    try:
+        try:
+            return int(args.func(args))
+        except Exception as exc:  # an interrupt that landed in C code comes back as another exception
+            if caused_by_interrupt(exc):
+                raise KeyboardInterrupt from exc
+            raise
+    except KeyboardInterrupt:  # what was half-built is gone by now, and the workers of a pool
+        interrupts.exiting()
+        print(_interrupted(args), file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except InputError as exc:  # any other exception is a bug and keeps its traceback
+        print(f"hitchpark {args.command}: error: {one_line(str(exc))}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except BrokenPipeError:  # the reader of stdout went away (`hitchpark ... | head`): stop quietly
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except OSError as exc:  # an output path that cannot be written
+        where = f": {exc.filename}" if exc.filename else ""
+        message = one_line(f"cannot write output{where}: {exc.strerror or exc}")
+        print(f"hitchpark {args.command}: error: {message}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    finally:
+        interrupts.restore()
+

@@ -1,0 +1,187 @@
+"""The commands: each parses its options, calls the library and prints. No logic of its own."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import Any
+
+from ..checks import InputError
+from .arguments import UsageError, _finite, _plant, parse_goal, parse_start, vehicle_from_args
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    from ..io import write_json
+    from ..outputs import check_output_file
+    from ..sim import simulate
+
+    path = check_output_file(args.json, "--json")
+    vehicle = vehicle_from_args(args)
+    start = parse_start(args.start)
+    result = simulate(
+        vehicle,
+        start,
+        rear_speed=_finite("--speed", args.speed),
+        front_steer=math.radians(_finite("--steer", args.steer)),
+        duration=_finite("--duration", args.duration),
+        dt=_finite("--dt", args.dt),
+    )
+    write_json(path, result.to_dict())
+    tr = result.trajectory
+    print(
+        f"simulated {tr['t'][-1]:.3f} s ({result.reason}): trailer axle at "
+        f"({tr['x_trailer'][-1]:.4f}, {tr['y_trailer'][-1]:.4f}) m, yaw {math.degrees(tr['yaw_trailer'][-1]):.3f} deg, "
+        f"hitch {math.degrees(tr['hitch'][-1]):.3f} deg -> {path}"
+    )
+    return 0
+
+
+IK_STUDY_FILES = ("ik_study.json", "ik_study.png")  #: what ik-study owns in --out
+
+
+def _cmd_ik_study(args: argparse.Namespace) -> int:
+    from ..io import StagedFolder, write_json
+    from ..studies import TABLE2_VEHICLE, inverse_kinematics_study
+
+    staged = StagedFolder(args.out, IK_STUDY_FILES, "--out")  # checks --out before any work
+    out = staged.target
+    result = inverse_kinematics_study(TABLE2_VEHICLE, rear_speed=_finite("--speed", args.speed))
+    with staged as stage:
+        write_json(stage / IK_STUDY_FILES[0], result.to_dict())
+        if not args.no_plots:
+            from ..viz.ik import plot_ik_study
+
+            plot_ik_study(result, stage / IK_STUDY_FILES[1])
+    print(
+        f"inverse kinematics study (Table 2): max |actual - desired virtual steer| = {result.max_steer_error:.3e} rad, "
+        f"max trailer gap full vs trailer-only model = {result.max_pose_error:.3e} m"
+    )
+    if not args.no_plots:
+        print(f"figure: {out / IK_STUDY_FILES[1]}")
+    print(f"data: {out / IK_STUDY_FILES[0]}")
+    return 0
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from ..app.report import reproduce, table5
+    from ..outputs import check_output_folder
+
+    out = check_output_folder(args.out, "--out")
+    plots = not args.no_plots
+    results, summary = reproduce(out, plots=plots, animation=plots, progress=print, plant=_plant(args))
+    print()
+    print("Table 5 (trailer distance error, orientation error, final hitch angle):")
+    print(table5(results))
+    print(f"\nsummary: {summary}")
+    return 0 if all(r.success for r in results) else 1
+
+
+def _cmd_park(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from ..app.report import MANEUVER_FILES, save_maneuver, summary_entry, table5
+    from ..io import StagedFolder
+    from ..maneuver.scenario import Scenario, load_scenario
+
+    staged = StagedFolder(args.out, MANEUVER_FILES, "--out")  # checks --out before any work
+    out = staged.target
+    if args.scenario is None and args.start is None:
+        raise UsageError("give --start X,Y,YAW_DEG,HITCH_DEG or --scenario FILE")
+    sc = load_scenario(args.scenario) if args.scenario is not None else Scenario("park", parse_start(args.start))
+    changes: dict[str, Any] = {}
+    if args.start is not None:
+        changes["start"] = parse_start(args.start)
+    if args.goal is not None:
+        changes["goal"] = parse_goal(args.goal)
+    if args.plant is not None:
+        changes["plant"] = _plant(args)
+    changes["vehicle"] = vehicle_from_args(args, default=sc.vehicle)
+    sc = replace(sc, **changes)
+
+    from ..maneuver.process import park
+
+    result = park(sc.vehicle, sc.start, sc.goal, sc.settings, name=sc.name, plant=sc.plant)  # checks the start
+    plots = not args.no_plots
+    with staged as stage:
+        files = {k: out / p.relative_to(stage) for k, p in save_maneuver(result, stage, plots, plots).items()}
+    entry = summary_entry(result, "maneuver.json")
+    outcome = (
+        "parked"
+        if result.success
+        else f"NOT parked: {result.reason}" + (f" ({result.detail})" if result.detail else "")
+    )
+    print(table5([result]))
+    print(
+        f"{outcome} after {len(result.stages)} stages, "
+        f"{result.duration:.1f} s; max |front steer| {entry['max_abs_front_steer_deg']:.2f} deg, "
+        f"max |hitch| {entry['max_abs_hitch_deg']:.2f} deg"
+    )
+    for name, path in files.items():
+        print(f"{name}: {path}")
+    return 0 if result.success else 1
+
+
+def _cmd_plot(args: argparse.Namespace) -> int:
+    from ..app.report import ANIMATION_FILE, FIGURE_FILES, render_maneuver
+    from ..io import StagedFolder, read_json
+    from ..maneuver.result import ManeuverResult
+
+    flag, out = ("--out", args.out) if args.out is not None else ("output folder", args.maneuver.parent)
+    staged = StagedFolder(out, (*FIGURE_FILES, ANIMATION_FILE), flag)  # checks it before any work
+    try:
+        data = read_json(args.maneuver)
+    except OSError as exc:
+        raise UsageError(f"cannot read {args.maneuver}: {exc.strerror or exc}") from None
+    except ValueError:  # not JSON, or not UTF-8 text
+        raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON (not JSON text)") from None
+    if not isinstance(data, dict):
+        raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON (not a JSON object)")
+    try:
+        result = ManeuverResult.from_dict(data)
+    except InputError as exc:
+        raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON: {exc}") from None
+    with staged as stage:
+        files = render_maneuver(result, stage, plots=True, animation=not args.no_animation)
+    for name, path in files.items():
+        print(f"{name}: {staged.target / path.relative_to(stage)}")
+    return 0
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from ..app.executors import sweep_executor
+    from ..app.records import format_summary
+    from ..app.sweep import build_config, run_sweep
+    from ..io import write_json
+    from ..outputs import check_figure_name, check_output_files
+
+    files = check_output_files({"--out": args.out, "--json": args.json, "--map": args.map}, append=["--out"])
+    if "--map" in files:
+        check_figure_name(files["--map"], "--map")
+    config = build_config(
+        n=args.n,
+        seed=args.seed,
+        region=args.region,
+        vehicle=vehicle_from_args(args),
+        settings_file=args.settings,
+        plant_file=args.plant,
+    )
+    executor = sweep_executor(args.workers, args.dask)
+    outcome = run_sweep(config, files["--out"], executor, progress=True)
+    if "--json" in files:
+        write_json(files["--json"], outcome.summary)
+    if "--map" in files:
+        from ..viz.sweep import plot_sweep_map
+
+        title = f"Sweep, seed {config.seed}"
+        plot_sweep_map(outcome.records, files["--map"], config.vehicle, config.region, title=title)
+    cut = ", a cut last line dropped" if outcome.dropped_cut_line else ""
+    print(
+        f"sweep of {config.n} starts (seed {config.seed}, region {config.region}): {outcome.ran} run now in "
+        f"{outcome.elapsed_s:.1f} s on {outcome.where}, {outcome.kept} kept from {files['--out']}{cut}"
+    )
+    print(format_summary(outcome.summary))
+    print(f"records: {files['--out']}")
+    for name, flag in (("summary", "--json"), ("map", "--map")):
+        if flag in files:
+            print(f"{name}: {files[flag]}")
+    return 0
