@@ -51,12 +51,12 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from ..checks import MAX_COORDINATE, MAX_YAW, InputError, check_keys, check_number, check_text, check_values, shown
+from ..checks import MAX_COORDINATE, MAX_YAW, InputError, check_keys, check_text, check_values, shown
 from ..io import read_toml
 from ..model.collision import closest
 from ..model.plant import PlantSettings
 from ..model.scene import Scene
-from ..model.state import Pose, State, check_pose, check_state
+from ..model.state import Pose, State, check_pose, check_state, pose_table
 from ..model.vehicle import VehicleTrailer, vehicle_from_dict
 from .result import ManeuverSettings
 
@@ -167,21 +167,13 @@ class Scenario:
     start_region: StartRegion | None = None
 
 
-def _pose_fields(table: str, data: Any, keys: tuple[str, ...], required: bool) -> dict[str, float]:
-    values = check_keys(table, data, keys)
-    missing = [k for k in keys if k not in values]
-    if required and missing:
-        raise InputError(f"{table}.{missing[0]} is missing; [{table}] needs {', '.join(keys)}")
-    return {k: check_number(f"{table}.{k}", v) for k, v in values.items()}
-
-
 def scenario_from_dict(data: dict[str, Any], path: Path | None = None) -> Scenario:
     """Build and check a :class:`Scenario` from parsed TOML."""
     data = check_keys("scenario", data, _TOP, "top-level key {!r}")
     if "start" not in data:
         raise InputError("[start] is missing: it needs x, y, yaw_deg, hitch_deg")
-    start_d = _pose_fields("start", data["start"], ("x", "y", "yaw_deg", "hitch_deg"), required=True)
-    goal_d = _pose_fields("goal", data.get("goal", {}), ("x", "y", "yaw_deg"), required=False)
+    start_d = pose_table("start", data["start"], ("x", "y", "yaw_deg", "hitch_deg"), required=True)
+    goal_d = pose_table("goal", data.get("goal", {}), ("x", "y", "yaw_deg"), required=False)
     name = check_text("name", data.get("name", path.stem if path else "scenario"), NAME_PATTERN, NAME_RULE, 100)
     description = check_text("description", data.get("description", ""), max_length=10_000)
     vehicle = vehicle_from_dict(data.get("vehicle", {}))

@@ -90,13 +90,20 @@ class State:
         return cls(x, y, math.radians(yaw_deg), math.radians(hitch_deg))
 
 
-def _numbers(what: str, data: Any, keys: tuple[str, ...]) -> list[float]:
-    """The numbers ``data[key]`` of a pose table, all present, no other key, each a finite number."""
+def pose_table(what: str, data: Any, keys: tuple[str, ...], required: bool = True) -> dict[str, float]:
+    """The numbers of a pose table ``[what]``: no key outside ``keys``, each a finite number, all present if
+    ``required``."""
     table = check_keys(what, data, keys)
     missing = [k for k in keys if k not in table]
-    if missing:
+    if required and missing:
         raise InputError(f"{what}.{missing[0]} is missing; [{what}] needs {', '.join(keys)}")
-    return [check_number(f"{what}.{k}", table[k]) for k in keys]
+    return {k: check_number(f"{what}.{k}", v) for k, v in table.items()}
+
+
+def _numbers(what: str, data: Any, keys: tuple[str, ...]) -> list[float]:
+    """The numbers of a complete pose table, in the order of ``keys``."""
+    table = pose_table(what, data, keys)
+    return [table[k] for k in keys]
 
 
 def check_state(vehicle: VehicleTrailer, state: State, what: str = "start") -> None:
