@@ -74,7 +74,9 @@ def check_maneuver_file(data: dict) -> None:
     for k in range(n - 1):
         index = int(tr["stage"][k])
         kind = data["stages"][index]["kind"]
-        if kind == "forward" or paper_loop:
+        if data["stages"][index]["controller"] != "nmpc":  # pursuit or path tracking: no solves
+            assert tr["solve_ms"][k] is None, f"row {k}"
+        elif kind == "forward" or paper_loop:
             assert (tr["solve_ms"][k] is None) == (kind == "forward"), f"row {k}"
         elif tr["solve_ms"][k] is None:
             assert tr["rear_speed_cmd"][k] == 0.0, f"row {k}"

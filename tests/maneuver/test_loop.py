@@ -63,7 +63,8 @@ def test_stages_switch_at_standstill_and_keep_their_direction(results, name):
         assert tr["rear_speed"][st.first_row] == 0.0, f"stage {i} does not start at standstill"
         assert np.all(speeds <= 0.0) if st.kind == "reverse" else np.all(speeds >= 0.0)
     assert tr["rear_speed"][-1] == 0.0
-    assert [s.kind for s in r.stages][:2] in (["reverse"], ["reverse", "forward"])
+    if r.settings.process.resolved(r.settings.nmpc.kind) == "staged":
+        assert [s.kind for s in r.stages][:2] in (["reverse"], ["reverse", "forward"])
 
 
 def test_the_controller_saw_the_noisy_hitch_and_success_is_on_the_true_state(results):

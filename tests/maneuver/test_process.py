@@ -23,6 +23,7 @@ from hitchpark.maneuver import (
     MANEUVER_COLUMNS,
     ManeuverResult,
     ManeuverSettings,
+    ProcessSettings,
     Scenario,
     SuccessCriteria,
     builtin_scenarios,
@@ -256,8 +257,9 @@ def test_bad_inputs_are_rejected():
     ids=["paper", "full"],
 )
 def test_solver_failure_stops_the_maneuver(nmpc, plant):
-    """A reverse stage whose solver fails before it moved ends the maneuver, in either process."""
-    result = park(VehicleTrailer(), State(10.0, 3.5, 0.0, 0.0), settings=ManeuverSettings(nmpc=nmpc), plant=plant)
+    """A reverse stage whose solver fails before it moved ends the maneuver, in either staged process."""
+    settings = ManeuverSettings(nmpc=nmpc, process=ProcessSettings(kind="staged"))
+    result = park(VehicleTrailer(), State(10.0, 3.5, 0.0, 0.0), settings=settings, plant=plant)
     assert not result.success
     assert result.reason == "solver" and result.detail
     assert result.stages[0].reason == f"solver: {result.detail}" and result.stages[0].steps == 0
@@ -333,7 +335,7 @@ def test_injected_failure_mid_stage_stops_safely(mode, status, scenarios, result
 def test_full_process_hands_a_failed_reverse_stage_over_to_the_forward_stage():
     """In the full process a reverse stage that moved and then fails stops the car; a forward stage follows."""
     sc = next(s for s in builtin_scenarios() if s.name == "parallel")
-    settings = ManeuverSettings()  # the full-model NMPC, on the realistic car
+    settings = ManeuverSettings(process=ProcessSettings(kind="staged"))  # the full-model NMPC, on the realistic car
     controller = FullNMPC(sc.vehicle, settings.nmpc)
     switch = Switch(20, "raise")
     controller.solver = FailingSolver(controller.solver, switch, primary=True)

@@ -14,8 +14,8 @@ from hypothesis import strategies as st
 from hitchpark.checks import InputError
 from hitchpark.model import VehicleTrailer
 from hitchpark.model.collision import (
+    SceneChecker,
     _body_geometries,
-    _Checker,
     _subsamples,
     body_shapes,
     clearance,
@@ -214,7 +214,7 @@ def test_swept_clearance_is_a_lower_bound_within_half_a_step(rows, max_step):
         [a + np.linspace(0.0, 1.0, 2000, endpoint=False)[:, None] * (b - a) for a, b in itertools.pairwise(states)]
         + [states[-1:]]
     )
-    dense = float(_Checker(V, SCENE).clearances(fine).min())
+    dense = float(SceneChecker(V, SCENE).clearances(fine).min())
     assert bound <= dense + 1e-9
     assert bound >= dense - max_step / 2 - 0.01  # the dense sampling itself may miss up to 5 mm
 
@@ -225,7 +225,7 @@ def test_pruned_sweep_equals_checking_every_pair(rows, max_step):
     """The sweep skips obstacles whose boxes are too far to matter; checking every pair gives the same answer."""
     states = np.array(rows)
     configs, row_of, half = _subsamples(V, states, max_step)
-    exact = _Checker(V, SCENE).clearances(configs)  # every body against every obstacle (nearest in the tree)
+    exact = SceneChecker(V, SCENE).clearances(configs)  # every body against every obstacle (nearest in the tree)
     bound = np.maximum(exact - half, 0.0)
     k = int(np.lexsort((exact, bound))[0])
     least, row = swept_clearance(V, SCENE, states, max_step_m=max_step)

@@ -188,4 +188,3 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     finally:
         interrupts.restore()
-

@@ -1,8 +1,9 @@
 """The parking maneuver: the closed loop (plant, stages, outcome), its result, and scenarios."""
 
 from .process import park
-from .result import MANEUVER_COLUMNS, ManeuverResult, ManeuverSettings, Outcome, StageResult, SuccessCriteria
+from .result import MANEUVER_COLUMNS, ManeuverResult, Outcome, PlanRecord, StageResult
 from .scenario import Scenario, builtin_scenarios, load_scenario
+from .settings import ManeuverSettings, ProcessSettings, SuccessCriteria
 from .stages import PROCESSES, Stage, make_stages
 
 __all__ = [
@@ -11,6 +12,8 @@ __all__ = [
     "ManeuverResult",
     "ManeuverSettings",
     "Outcome",
+    "PlanRecord",
+    "ProcessSettings",
     "Scenario",
     "Stage",
     "StageResult",

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..checks import InputError, check_instance, check_text
-from ..control.nmpc import FullNMPC, NMPCStep, TrailerNMPC
+from ..control.nmpc import FullNMPC, NMPCStep, TrailerNMPC, make_nmpc
 from ..model.collision import MAX_STEP_M, swept_contact
 from ..model.inverse import virtual_steer_from_front
 from ..model.kinematics import trailer_speed_from_rear_speed
@@ -31,15 +31,17 @@ from ..model.scene import Scene
 from ..model.state import Pose, State, check_goal, check_state
 from ..model.vehicle import VehicleTrailer, check_vehicle
 from ..sim import STATE_COLUMNS, Trajectory, state_columns
+from .planned import PlannedProcess
 from .result import (
     MANEUVER_COLUMNS,
     ManeuverResult,
-    ManeuverSettings,
     Outcome,
+    PlanRecord,
     StageResult,
     pose_errors,
 )
-from .stages import Stage, make_stages
+from .settings import ManeuverSettings
+from .stages import Ending, Process, Stage, StagedProcess, StageEnd, make_stages
 
 __all__ = ["SETTLE_TOLERANCE", "park"]
 
@@ -66,7 +68,6 @@ class _Loop:
     last: Command = field(default_factory=lambda: Command(0.0, 0.0))
     outcome: Outcome | None = None
     detail: str = ""
-    hand_over: bool = True  # a reverse stage's solver failure after it moved hands over to the next stage
 
     def in_flight(self) -> tuple[Command, ...]:
         """The commands issued but not yet acted on: the known delay."""
@@ -175,36 +176,59 @@ class _Loop:
         return Trajectory({c: cols[c] for c in MANEUVER_COLUMNS})
 
 
-def _run_stage(loop: _Loop, index: int, stage: Stage) -> str:
-    """Drive one stage to its end at standstill; returns the stage's reason (the loop's outcome on failure)."""
+def _run_stage(loop: _Loop, index: int, stage: Stage) -> StageEnd:
+    """Drive one stage to its end at standstill; how it ended (the loop's outcome set on a jackknife or timeout)."""
+    kind, controller = stage.kind, stage.controller
     want = stage.begin(loop.plant.sense(), loop.goal)
     if want is not None and not loop.settle(index, want):
-        return loop.outcome.value if loop.outcome else "settle"
+        return StageEnd(kind, controller, loop.outcome.value if loop.outcome else "settle")
     for step in range(stage.max_steps):
         if loop.out_of_time():
-            return Outcome.TIMEOUT.value
+            return StageEnd(kind, controller, Outcome.TIMEOUT.value)
         m = loop.plant.sense()
         u = stage.act(m, loop.goal, loop.in_flight())
-        if not u.ok:
-            # Stopped safely. In the full process a reverse stage that got somewhere may have run into its
-            # limits (the hitch at its bound): the next stage can reposition. One that cannot even start, or
-            # any failure in the paper's process, ends the maneuver.
-            if step == 0 or stage.kind != "reverse" or not loop.hand_over:
-                loop.outcome, loop.detail = Outcome.SOLVER, u.status
+        if not u.ok:  # stopped safely; the process says what comes next
             loop.brake(index)
-            return f"solver: {u.status}"
+            label = "solver" if controller in ("nmpc", "pursuit") else controller
+            reason = u.status if u.status.startswith("guard:") else f"{label}: {u.status}"
+            return StageEnd(kind, controller, reason, failed=True, status=u.status, step=step)
         if u.stop:
-            reason = "stopped" if stage.kind == "reverse" else "repositioned"
+            reason = "stopped" if kind == "reverse" else "repositioned"
             break
         command = loop.limited(u.command) if stage.rate_limited else u.command
         if not loop.step(index, m, command, u):
-            return Outcome.JACKKNIFE.value
+            return StageEnd(kind, controller, Outcome.JACKKNIFE.value)
     else:
         loop.outcome = Outcome.STALLED
         reason = Outcome.STALLED.value
     if not loop.brake(index):
-        return loop.outcome.value if loop.outcome else reason
-    return reason
+        return StageEnd(kind, controller, loop.outcome.value if loop.outcome else reason)
+    return StageEnd(kind, controller, reason)
+
+
+def direction_segments_of(stages: list[StageResult]) -> int:
+    """Direction segments driven: stages in a row of the same kind count once (the success limit counts these)."""
+    return sum(1 for i, st in enumerate(stages) if i == 0 or st.kind != stages[i - 1].kind)
+
+
+def _errors_deg(goal: Pose, state: np.ndarray) -> tuple[float, float, float]:
+    """Distance [m], orientation error [deg] and hitch [deg] of ``state`` at ``goal``."""
+    dist, orient = pose_errors(goal, state)
+    return dist, math.degrees(orient), math.degrees(state[3])
+
+
+def make_process(
+    vehicle: VehicleTrailer,
+    settings: ManeuverSettings,
+    scene: Scene,
+    nmpc: TrailerNMPC | FullNMPC | None,
+    delay: int,
+) -> Process:
+    """The process ``settings.process`` names (``auto``: planned with the full NMPC, staged with the paper's)."""
+    nmpc = nmpc or make_nmpc(vehicle, settings.nmpc)
+    if settings.process.resolved(settings.nmpc.kind) == "planned":
+        return PlannedProcess(vehicle, settings, scene, nmpc, delay)
+    return StagedProcess(make_stages(vehicle, settings, nmpc), hand_over=settings.nmpc.kind != "paper")
 
 
 def park(
@@ -268,14 +292,14 @@ def park(
         crit.max_time,
         vehicle.max_steer_rate,
         vehicle.max_accel,
-        hand_over=settings.nmpc.kind != "paper",
     )
-    reverse, forward = make_stages(vehicle, settings, controller)
+    process = make_process(vehicle, settings, scene, controller, plant.delay_steps)
     stages: list[StageResult] = []
-    stage: Stage = reverse
-    while True:
+    next_stage = process.first(car.sense(), goal)
+    while not isinstance(next_stage, Ending):
+        stage = next_stage
         index, first = len(stages), len(loop.states)
-        stage_reason = _run_stage(loop, index, stage)
+        ended = _run_stage(loop, index, stage)
         state = car.state.as_array()
         dist, orient = pose_errors(goal, state)
         stages.append(
@@ -287,19 +311,32 @@ def park(
                 math.degrees(state[3]),
                 first,
                 len(loop.states),
-                stage_reason,
+                ended.reason[:200],
+                stage.controller,
             )
         )
         if loop.outcome is not None:
+            break
+        verdict = process.next(car.sense(), goal, ended) if ended.failed else None
+        if isinstance(verdict, Ending):
+            next_stage = verdict
             break
         parked = dist <= crit.distance and abs(orient) <= crit.orientation and abs(state[3]) <= crit.hitch
         if stage.kind == "reverse" and parked:
             loop.outcome = Outcome.PARKED
             break
-        if len(stages) >= crit.max_stages:
+        next_stage = verdict if verdict is not None else process.next(car.sense(), goal, ended)
+        if (
+            not isinstance(next_stage, Ending)
+            and next_stage.kind != stage.kind
+            and direction_segments_of(stages) >= crit.max_stages
+        ):
             loop.outcome = Outcome.MAX_STAGES
             break
-        stage = forward if stage is reverse else reverse
+    if not stages:  # the process ended before any stage (no path from the start): one row, standing
+        stages.append(StageResult("reverse", 0, *_errors_deg(goal, car.state.as_array()), 0, 0, "not started", ""))
+    if isinstance(next_stage, Ending) and loop.outcome is None:
+        loop.outcome, loop.detail = next_stage.outcome, next_stage.detail
     loop.final_row(len(stages) - 1)
     traj = loop.trajectory()
     real = car.vehicle
@@ -308,6 +345,7 @@ def park(
         and np.max(np.abs(traj["hitch"])) <= real.max_hitch
     )
     outcome = loop.outcome
+    assert outcome is not None  # every way out of the loop sets it
     success = outcome is Outcome.PARKED and bool(within_limits) and car.t <= crit.max_time + 1e-9
     if outcome is Outcome.PARKED and not success:
         outcome = Outcome.LIMITS_EXCEEDED
@@ -318,14 +356,15 @@ def park(
         swept = least, row
         if least == 0.0 or least < crit.min_clearance_m:
             near = f": {contact.describe()} near t = {traj['t'][row]:.1f} s" if contact is not None else ""
-            ended = f"; its own outcome: {outcome.value}" + (f" ({detail})" if detail else "")
-            detail = f"clearance {least:.3g} m, less than min_clearance_m {crit.min_clearance_m:g} m{near}{ended}"
+            own = f"; its own outcome: {outcome.value}" + (f" ({detail})" if detail else "")
+            detail = f"clearance {least:.3g} m, less than min_clearance_m {crit.min_clearance_m:g} m{near}{own}"
             if least == 0.0:
                 within = f"{100 * MAX_STEP_M / 2:g} cm"
-                detail = f"clearance 0 (touching, leaving the area, or passing within {within}){near}{ended}"
+                detail = f"clearance 0 (touching, leaving the area, or passing within {within}){near}{own}"
             success, outcome = False, Outcome.COLLISION
+    plans = tuple(PlanRecord.of(p) for p in process.plans)
     result = ManeuverResult(
-        vehicle, start, goal, settings, success, outcome.value, tuple(stages), traj, name, plant, detail, scene
+        vehicle, start, goal, settings, success, outcome.value, tuple(stages), traj, name, plant, detail, scene, plans
     )
     if swept is not None:
         result.__dict__["swept"] = swept  # the cached property's value: computed once per maneuver

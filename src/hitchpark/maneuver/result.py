@@ -32,20 +32,23 @@ from ..checks import (
     checked,
     shown,
 )
-from ..control.ocp import NMPCSettings
-from ..control.pure_pursuit import PurePursuitSettings
+from ..control.planner import STATUSES, Plan
 from ..model.collision import swept_clearance
 from ..model.plant import PlantSettings
 from ..model.scene import Scene
 from ..model.state import Pose, State, check_state, to_goal_frame
 from ..model.vehicle import VehicleTrailer, vehicle_from_dict
 from ..sim import BASE_COLUMNS, Trajectory
+from .settings import MAX_MANEUVER_TIME, ManeuverSettings, ProcessSettings, SuccessCriteria
 
 __all__ = [
     "MANEUVER_COLUMNS",
+    "PLAN_COLUMNS",
     "ManeuverResult",
     "ManeuverSettings",
     "Outcome",
+    "PlanRecord",
+    "ProcessSettings",
     "StageResult",
     "SuccessCriteria",
     "pose_errors",
@@ -71,9 +74,31 @@ MANEUVER_COLUMNS = (
 FINITE_COLUMNS = (*BASE_COLUMNS, "front_steer_cmd", "rear_speed_cmd", "hitch_measured", "stage")
 
 #: Keys of ``maneuver.json``: those read back, those written for readers only (derived from the rest).
-_SAVED_KEYS = ("name", "vehicle", "start", "goal", "obstacles", "area", "plant", "success", "reason", "detail",
-               "stages", "settings", "trajectory")
-_DERIVED_KEYS = ("duration_s", "max_abs_front_steer_deg", "max_abs_hitch_deg", "min_clearance_m", "collision")
+_SAVED_KEYS = (
+    "name",
+    "vehicle",
+    "start",
+    "goal",
+    "obstacles",
+    "area",
+    "plant",
+    "success",
+    "reason",
+    "detail",
+    "stages",
+    "settings",
+    "trajectory",
+    "plans",
+)
+_DERIVED_KEYS = (
+    "duration_s",
+    "max_abs_front_steer_deg",
+    "max_abs_hitch_deg",
+    "min_clearance_m",
+    "collision",
+    "planning_s",
+    "direction_switches",
+)
 _REQUIRED_KEYS = ("vehicle", "start", "goal", "success", "reason", "stages", "trajectory")
 
 
@@ -88,70 +113,13 @@ class Outcome(StrEnum):
     MAX_STAGES = "max_stages"
     LIMITS_EXCEEDED = "limits exceeded"
     COLLISION = "collision"  # a body touched an obstacle, left the area, or came closer than min_clearance_m
-
-
-#: Longest maneuver time accepted [s]: a day; a parking maneuver takes a minute.
-MAX_MANEUVER_TIME = 86_400.0
-
-
-@dataclass(frozen=True)
-class SuccessCriteria:
-    """Success, defined once: final errors within these, limits never exceeded, within stages and time.
-
-    distance [m] (trailer axle to goal), orientation [rad] (trailer yaw error),
-    hitch [rad] (final |hitch|), max_stages, max_time [s] of maneuver time, min_clearance_m [m]: the
-    least clearance between the bodies and the scene's obstacles and area boundary over the whole motion
-    (swept, :func:`~hitchpark.model.collision.swept_clearance`); it does not apply to an empty scene.
-    """
-
-    distance: float = checked(0.05, Real(0.0, 100.0, low_open=True, unit="m"))
-    orientation: float = checked(math.radians(0.5), Real(0.0, math.pi, low_open=True, unit="rad"))
-    hitch: float = checked(math.radians(3.0), Real(0.0, math.pi / 2, low_open=True, unit="rad"))
-    max_stages: int = checked(7, Integer(1, 1000))
-    max_time: float = checked(300.0, Real(0.0, MAX_MANEUVER_TIME, low_open=True, unit="s (a day)"))
-    min_clearance_m: float = checked(0.2, Real(0.0, 5.0, unit="m"))
-
-    def __post_init__(self) -> None:
-        check_fields(self, "success.")
-
-
-@dataclass(frozen=True)
-class ManeuverSettings:
-    """Everything that shapes a maneuver besides the vehicle, start and goal."""
-
-    nmpc: NMPCSettings = field(default_factory=NMPCSettings)
-    forward: PurePursuitSettings = field(default_factory=PurePursuitSettings)
-    success: SuccessCriteria = field(default_factory=SuccessCriteria)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"nmpc": asdict(self.nmpc), "forward": asdict(self.forward), "success": asdict(self.success)}
-
-    @classmethod
-    def from_dict(cls, data: Any) -> ManeuverSettings:
-        """From the tables ``nmpc``, ``forward`` and ``success`` (each optional; unknown keys refused)."""
-        tables = check_keys("settings", data, _SETTINGS_TABLES, "table [{}]")
-        nmpc = tables.get("nmpc", {})
-        if "solver_options" in check_mapping("[nmpc]", nmpc):
-            nmpc = {**nmpc, "solver_options": dict(check_mapping("nmpc.solver_options", nmpc["solver_options"]))}
-        return cls(
-            nmpc=build(NMPCSettings, nmpc, "nmpc", convert={k: _listed for k in ("Q", "R", "P")}),
-            forward=build(PurePursuitSettings, tables.get("forward", {}), "forward"),
-            success=build(SuccessCriteria, tables.get("success", {}), "success"),
-        )
-
-
-def _listed(value: Any) -> Any:
-    """A TOML or JSON list as the tuple a settings field holds."""
-    return tuple(value) if isinstance(value, list) else value
-
-
-#: The tables of maneuver settings in a file.
-_SETTINGS_TABLES = ("nmpc", "forward", "success")
+    NO_PATH = "no_path"  # the planner found no way (or gave up replanning); the car was stopped
 
 
 @dataclass(frozen=True)
 class StageResult:
-    """One stage: its kind, number of applied steps, rows [first_row, last_row] and its end errors."""
+    """One stage: its kind, number of applied steps, rows [first_row, last_row], its end errors, why it
+    ended, and the controller that drove it (``nmpc``, ``pursuit`` or ``tracking``)."""
 
     kind: str = checked(check=Choice(("reverse", "forward")))
     steps: int = checked(check=Integer(0))
@@ -161,12 +129,67 @@ class StageResult:
     first_row: int = checked(check=Integer(0))
     last_row: int = checked(check=Integer(0))
     reason: str = checked(check=Text(max_length=200))
+    controller: str = checked("", Choice(("", "nmpc", "pursuit", "tracking")))  # "": not recorded (older files)
 
     def __post_init__(self) -> None:
         check_fields(self, "stage.")
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
+
+
+#: The columns of a planned path kept in a result: the trailer-axle pose, the hitch, the direction.
+PLAN_COLUMNS = ("x_trailer", "y_trailer", "yaw_trailer", "hitch", "direction")
+
+
+@dataclass(frozen=True)
+class PlanRecord:
+    """One plan of a planned maneuver: its status, planning time [s], detail, and path (:data:`PLAN_COLUMNS`)."""
+
+    status: str = checked(check=Choice(STATUSES))
+    planning_s: float = checked(check=Real(0.0, MAX_MANEUVER_TIME, unit="s"))
+    detail: str = checked("", Text(max_length=500))
+    path: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        check_fields(self, "plans[].")
+
+    @classmethod
+    def of(cls, plan: Plan) -> PlanRecord:
+        path = {c: plan.path[c] for c in PLAN_COLUMNS} if plan.path else {}
+        return cls(plan.status, plan.planning_s, plan.detail[:500], path)
+
+    @property
+    def direction_switches(self) -> int:
+        d = self.path.get("direction", np.zeros(0))
+        return int(np.count_nonzero(d[2:] != d[1:-1])) if len(d) > 2 else 0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "status": self.status,
+            "planning_s": self.planning_s,
+            "detail": self.detail,
+            "path": {c: self.path[c].tolist() for c in PLAN_COLUMNS} if self.path else {},
+        }
+
+    @classmethod
+    def from_dict(cls, data: Any, what: str) -> PlanRecord:
+        table = dict(check_keys(what, data, ("status", "planning_s", "detail", "path")))
+        columns: dict[str, np.ndarray] = {}
+        if table.get("path"):
+            path = Trajectory.from_dict(check_mapping(f"{what}.path", table["path"]), finite=PLAN_COLUMNS)
+            missing = [c for c in PLAN_COLUMNS if c not in path]
+            if missing:
+                raise InputError(f"{what}.path lacks the column {missing[0]!r}")
+            columns = {c: np.asarray(path[c], dtype=float) for c in PLAN_COLUMNS}
+        return build(cls, {**table, "path": columns}, what)
+
+
+def _listed_tables(key: str, data: dict[str, Any]) -> list[Any]:
+    value = data.get(key, [])
+    if not isinstance(value, list):
+        raise InputError(f"{key} must be a list of tables, got {shown(value)}")
+    return value
 
 
 def pose_errors(goal: Pose, state: np.ndarray) -> tuple[float, float]:
@@ -196,6 +219,7 @@ class ManeuverResult:
     plant: PlantSettings = field(default_factory=PlantSettings)
     detail: str = ""
     scene: Scene = field(default_factory=Scene)
+    plans: tuple[PlanRecord, ...] = ()
 
     @property
     def outcome(self) -> Outcome:
@@ -235,6 +259,18 @@ class ManeuverResult:
         return None if self.scene.is_empty else self.swept[0]
 
     @property
+    def planning_s(self) -> float:
+        """Wall-clock time of all the planning of this maneuver, replans included [s] (0 if it planned nothing)."""
+        return float(sum(p.planning_s for p in self.plans))
+
+    @property
+    def direction_switches(self) -> int:
+        """Changes of direction of the car's actual motion (forward to reverse or back)."""
+        v = self.trajectory["rear_speed"]
+        moving = np.sign(v[np.abs(v) > 1e-6])
+        return int(np.count_nonzero(moving[1:] != moving[:-1]))
+
+    @property
     def collision(self) -> bool:
         """True if a body touched or overlapped an obstacle or left the area (:attr:`min_clearance_m` is 0)."""
         return self.min_clearance_m == 0.0
@@ -260,6 +296,9 @@ class ManeuverResult:
             "max_abs_hitch_deg": self.max_abs_hitch_deg,
             "min_clearance_m": self.min_clearance_m,
             "collision": self.collision,
+            "planning_s": self.planning_s,
+            "direction_switches": self.direction_switches,
+            "plans": [p.to_dict() for p in self.plans],
             "stages": [s.to_dict() for s in self.stages],
             "settings": self.settings.to_dict(),
             "trajectory": self.trajectory.to_dict(),
@@ -300,6 +339,7 @@ class ManeuverResult:
             plant=plant,
             detail=detail,
             scene=scene,
+            plans=tuple(PlanRecord.from_dict(p, f"plans[{i}]") for i, p in enumerate(_listed_tables("plans", data))),
         )
         result._check_layout()
         return result

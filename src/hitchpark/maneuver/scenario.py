@@ -58,7 +58,7 @@ from ..model.plant import PlantSettings
 from ..model.scene import Scene
 from ..model.state import Pose, State, check_pose, check_state, pose_table
 from ..model.vehicle import VehicleTrailer, vehicle_from_dict
-from .result import ManeuverSettings
+from .settings import SETTINGS_TABLES, ManeuverSettings
 
 __all__ = [
     "BUILTIN_ORDER",
@@ -84,9 +84,7 @@ _TOP = (
     "goal",
     "vehicle",
     "plant",
-    "nmpc",
-    "forward",
-    "success",
+    *SETTINGS_TABLES,
     "obstacles",
     "area",
     "start_region",
@@ -180,7 +178,7 @@ def scenario_from_dict(data: dict[str, Any], path: Path | None = None) -> Scenar
     check_pose("start", start_d["x"], start_d["y"], math.radians(start_d["yaw_deg"]))
     start = State(start_d["x"], start_d["y"], math.radians(start_d["yaw_deg"]), math.radians(start_d["hitch_deg"]))
     goal = Pose(goal_d.get("x", 0.0), goal_d.get("y", 0.0), math.radians(goal_d.get("yaw_deg", 0.0)))
-    settings = ManeuverSettings.from_dict({k: data[k] for k in ("nmpc", "forward", "success") if k in data})
+    settings = ManeuverSettings.from_dict({k: data[k] for k in SETTINGS_TABLES if k in data})
     plant = PlantSettings.from_dict(data.get("plant", {}))
     vehicle.require_hitch_offset()
     check_state(vehicle, start)

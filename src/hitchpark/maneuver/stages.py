@@ -1,30 +1,48 @@
-"""Stages of a maneuver: a small protocol, and the processes that make them.
+"""Stages of a maneuver and the processes that choose them: two small protocols.
 
 A stage is a controller with a direction: it may ask for a steer to start with (set while
-standing still), it acts on each measurement, and it says when it is done. A process is
-the pair of stages a maneuver alternates between (reverse, forward, reverse, ... as in
-Fig. 7), registered by the NMPC kind that drives it.
+standing still), it acts on each measurement, and it says when it is done. A process says which
+stage comes first and, each time one ends (at standstill), which comes next or how the maneuver
+ends. The staged process alternates a reverse and a forward stage (Fig. 7), built for the NMPC kind
+(:data:`PROCESSES`); the planned one (:mod:`.planned`) tracks a planned path.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Protocol
 
+from ..control.guard import Guard
 from ..control.nmpc import FullNMPC, NMPCStep, TrailerNMPC, make_nmpc
+from ..control.path_tracking import PathTracker
+from ..control.planner import Plan
 from ..control.pure_pursuit import ForwardPursuit
 from ..model.plant import Command, Measurement
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
-from .result import ManeuverSettings
+from .result import Outcome
+from .settings import ManeuverSettings
 
-__all__ = ["PROCESSES", "Stage", "StagePair", "make_stages"]
+__all__ = [
+    "PROCESSES",
+    "Ending",
+    "GuardedStage",
+    "Process",
+    "Stage",
+    "StageEnd",
+    "StagePair",
+    "StagedProcess",
+    "TrackingStage",
+    "make_stages",
+]
 
 
 class Stage(Protocol):
     """One direction of travel under one controller."""
 
     kind: str  # "reverse" or "forward"
+    controller: str  # what drives it: "nmpc", "pursuit" (Section 5) or "tracking" (a planned path)
 
     @property
     def rate_limited(self) -> bool:
@@ -49,6 +67,7 @@ class ReverseStage:
     """Reverse under an NMPC (the paper's or the full model's) until its optimal speed is zero."""
 
     kind = "reverse"
+    controller = "nmpc"
 
     def __init__(self, nmpc: TrailerNMPC | FullNMPC):
         self.nmpc = nmpc
@@ -73,6 +92,7 @@ class ForwardStage:
     """Forward repositioning by pure pursuit (Section 5) until it is far enough out and straight."""
 
     kind = "forward"
+    controller = "pursuit"
 
     def __init__(self, pursuit: ForwardPursuit):
         self.pursuit = pursuit
@@ -91,6 +111,104 @@ class ForwardStage:
 
     def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> NMPCStep:
         return self.pursuit.act(measurement, goal, in_flight)
+
+
+class TrackingStage:
+    """One direction segment of a planned path, tracked (:class:`~hitchpark.control.path_tracking.PathTracker`)."""
+
+    rate_limited = True
+    controller = "tracking"
+
+    def __init__(self, tracker: PathTracker):
+        self.tracker = tracker
+        self.kind = "forward" if tracker.direction > 0 else "reverse"
+
+    @property
+    def max_steps(self) -> int:
+        return self.tracker.max_steps
+
+    def begin(self, measurement: Measurement, goal: Pose) -> float | None:
+        self.tracker.reset(measurement.front_steer)
+        return self.tracker.initial_steer(measurement, goal)
+
+    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> NMPCStep:
+        return self.tracker.act(measurement, goal, in_flight)
+
+
+class GuardedStage:
+    """A stage whose every command passes the :class:`~hitchpark.control.guard.Guard` first."""
+
+    def __init__(self, stage: Stage, guard: Guard):
+        self.stage, self.guard = stage, guard
+        self.kind, self.controller = stage.kind, stage.controller
+
+    @property
+    def rate_limited(self) -> bool:
+        return self.stage.rate_limited
+
+    @property
+    def max_steps(self) -> int:
+        return self.stage.max_steps
+
+    def begin(self, measurement: Measurement, goal: Pose) -> float | None:
+        return self.stage.begin(measurement, goal)
+
+    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> NMPCStep:
+        return self.guard.check(measurement, goal, self.stage.act(measurement, goal, in_flight))
+
+
+@dataclass(frozen=True)
+class StageEnd:
+    """How a stage ended: ``reason`` as recorded; ``failed`` with the controller's ``status`` and the
+    step it failed at (0: before it moved)."""
+
+    kind: str
+    controller: str
+    reason: str
+    failed: bool = False
+    status: str = ""
+    step: int = 0
+
+
+@dataclass(frozen=True)
+class Ending:
+    """The process's verdict that the maneuver ends, with its outcome and why."""
+
+    outcome: Outcome
+    detail: str = ""
+
+
+class Process(Protocol):
+    """Chooses the stages of a maneuver (see the module text); ``plans``: the paths it planned, in order."""
+
+    plans: list[Plan]
+
+    def first(self, measurement: Measurement, goal: Pose) -> Stage | Ending:
+        """The first stage, at the start (standstill)."""
+        ...
+
+    def next(self, measurement: Measurement, goal: Pose, ended: StageEnd) -> Stage | Ending:
+        """The stage after one that ``ended`` unparked, or the end of the maneuver."""
+        ...
+
+
+class StagedProcess:
+    """Reverse, forward, reverse, ... (Fig. 7). A reverse stage's failure after it moved hands over to
+    the forward stage when ``hand_over`` (the full process: it may have run into its limits, the next
+    stage can reposition); any other failure ends the maneuver (outcome ``solver``)."""
+
+    def __init__(self, stages: StagePair, hand_over: bool):
+        self.reverse, self.forward = stages
+        self.hand_over = hand_over
+        self.plans: list[Plan] = []  # it plans nothing
+
+    def first(self, measurement: Measurement, goal: Pose) -> Stage | Ending:
+        return self.reverse
+
+    def next(self, measurement: Measurement, goal: Pose, ended: StageEnd) -> Stage | Ending:
+        if ended.failed and (ended.step == 0 or ended.kind != "reverse" or not self.hand_over):
+            return Ending(Outcome.SOLVER, ended.status)
+        return self.forward if ended.kind == "reverse" else self.reverse
 
 
 #: A maneuver's stages: the reverse one and the forward one, alternated from reverse.

@@ -46,6 +46,7 @@ __all__ = [
     "BODIES",
     "MAX_STEP_M",
     "Contact",
+    "SceneChecker",
     "body_shapes",
     "clearance",
     "closest",
@@ -122,7 +123,7 @@ def clearance(vehicle: VehicleTrailer, scene: Scene, x_t: Any, y_t: Any, yaw_t: 
     """
     vehicle, scene = _checked(vehicle, scene)
     config = np.array([_config((x_t, y_t, yaw_t, hitch))])
-    return float(_Checker(vehicle, scene).clearances(config)[0])
+    return float(SceneChecker(vehicle, scene).clearances(config)[0])
 
 
 def collides(vehicle: VehicleTrailer, scene: Scene, x_t: Any, y_t: Any, yaw_t: Any, hitch: Any) -> bool:
@@ -207,7 +208,7 @@ def _sweep(vehicle: Any, scene: Any, states: Any, max_step_m: Any) -> tuple[floa
     if scene.is_empty:
         return math.inf, 0, None
     configs, rows, half_steps = _subsamples(vehicle, states, max_step_m)
-    checker = _Checker(vehicle, scene)
+    checker = SceneChecker(vehicle, scene)
     best, best_exact, best_at, where = math.inf, math.inf, 0, configs[0]
     for first in range(0, len(configs), _CHUNK):
         part = slice(first, first + _CHUNK)
@@ -282,7 +283,7 @@ def _subsamples(
     return configs, np.append(rows, n - 1), np.append(half_steps, half[-1])
 
 
-class _Checker:
+class SceneChecker:
     """The scene made ready for many queries: an STRtree of the obstacles, the area and its ring."""
 
     def __init__(self, vehicle: VehicleTrailer, scene: Scene):

@@ -18,7 +18,16 @@ import numpy as np
 from ..checks import MAX_COORDINATE, MAX_YAW, InputError, check_instance, check_keys, check_number, check_range
 from .vehicle import VehicleTrailer
 
-__all__ = ["Pose", "State", "check_goal", "check_pose", "check_state", "to_goal_frame", "wrap_angle"]
+__all__ = [
+    "Pose",
+    "State",
+    "check_goal",
+    "check_pose",
+    "check_state",
+    "from_goal_frame",
+    "to_goal_frame",
+    "wrap_angle",
+]
 
 
 def wrap_angle(a: Any) -> Any:
@@ -130,3 +139,10 @@ def to_goal_frame(goal: Pose, x: Any, y: Any, yaw: Any) -> tuple[Any, Any, Any]:
     c, s = math.cos(goal.yaw), math.sin(goal.yaw)
     dx, dy = np.asarray(x) - goal.x, np.asarray(y) - goal.y
     return c * dx + s * dy, -s * dx + c * dy, wrap_angle(np.asarray(yaw) - goal.yaw)
+
+
+def from_goal_frame(goal: Pose, gx: Any, gy: Any, gyaw: Any) -> tuple[Any, Any, Any]:
+    """Parking frame of ``goal`` -> world pose(s): the inverse of :func:`to_goal_frame` (yaw not wrapped)."""
+    c, s = math.cos(goal.yaw), math.sin(goal.yaw)
+    gx, gy = np.asarray(gx), np.asarray(gy)
+    return goal.x + c * gx - s * gy, goal.y + s * gx + c * gy, np.asarray(gyaw) + goal.yaw

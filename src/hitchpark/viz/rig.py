@@ -178,8 +178,17 @@ def draw_scene(ax: Axes, scene: Scene, ext: Extent, margin: float = 0.8) -> None
         if seen.is_empty:
             continue
         spot = shapely.point_on_surface(seen)
-        ax.text(spot.x, spot.y, obstacle.name, fontsize=7, color="#1a1a1a", ha="center", va="center",
-                zorder=1.6, clip_on=True)
+        ax.text(
+            spot.x,
+            spot.y,
+            obstacle.name,
+            fontsize=7,
+            color="#1a1a1a",
+            ha="center",
+            va="center",
+            zorder=1.6,
+            clip_on=True,
+        )
 
 
 def draw_contact(ax: Axes, contact: Contact, clearance: float) -> None:

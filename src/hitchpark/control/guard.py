@@ -1,0 +1,86 @@
+"""A guard between a stage's controller and the car: it keeps the bodies clear of the scene.
+
+Every command a controller asks is checked, before it is issued, against the obstacles and the area
+(:class:`~hitchpark.model.collision.SceneChecker`, exact geometry) at the measured configuration and,
+when the controller predicts (the NMPC's horizon), at every predicted one. Too close means a body
+within ``min_clearance_m + margin_m`` of the scene: the guard then stops the car (``ok`` False, the
+stage ends, the process plans again from where the car stands). Otherwise it slows the car so that it
+could stop before it gets that close: the rear axle's speed v satisfies
+``k (v (delay + 1) dt + v^2 / (2 a)) <= clearance - min_clearance_m - margin_m``, with ``a`` half the
+acceleration limit (the loop's braking) and ``k`` = :data:`BODY_SPEED_RATIO` (a corner of a body moves
+faster than the rear axle when the car turns).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from ..model.collision import SceneChecker
+from ..model.plant import Measurement
+from ..model.scene import Scene
+from ..model.state import Pose, from_goal_frame
+from ..model.vehicle import VehicleTrailer
+from .nmpc import NMPCStep
+
+__all__ = ["BODY_SPEED_RATIO", "Guard"]
+
+#: How much faster than the rear axle a point of a body can move, at most, in a parking maneuver:
+#: the car's front corners sweep about 1.6 times the axle's speed at full lock (Table 4's lengths).
+BODY_SPEED_RATIO = 2.0
+
+
+class Guard:
+    """Checks and slows commands near the scene (see the module text)."""
+
+    def __init__(
+        self, vehicle: VehicleTrailer, scene: Scene, min_clearance_m: float, margin_m: float, dt: float, delay: int
+    ):
+        self.vehicle, self.dt, self.delay = vehicle, dt, delay
+        self.need = min_clearance_m + margin_m
+        self.checker = SceneChecker(vehicle, scene)
+        self.least = math.inf  # least clearance seen, for the record
+
+    def max_speed(self, room: float) -> float:
+        """Largest rear-axle speed [m/s] that can stop within ``room`` metres of body travel."""
+        if room <= 0.0:
+            return 0.0
+        a = 0.5 * self.vehicle.max_accel
+        reach = room / BODY_SPEED_RATIO
+        lag = (self.delay + 1) * self.dt
+        # Solve lag v + v^2 / (2 a) = reach for v >= 0.
+        return -a * lag + math.sqrt((a * lag) ** 2 + 2.0 * a * reach)
+
+    def clear(self, configs: np.ndarray) -> bool:
+        """Whether every configuration (rows x_t, y_t, yaw_t, hitch) keeps ``min_clearance_m + margin_m``."""
+        return bool(np.all(self.checker.clearances(np.asarray(configs, dtype=float)) >= self.need))
+
+    def check(self, measurement: Measurement, goal: Pose, step: NMPCStep) -> NMPCStep:
+        """``step`` as is, slowed, or turned into a stop when it would bring a body too close."""
+        if not step.ok or step.stop:
+            return step
+        s = measurement.state
+        configs = [np.array([s.x, s.y, s.yaw, s.hitch])]
+        predicted = step.predicted_states
+        if predicted.ndim == 2 and predicted.shape[0] > 1 and predicted.shape[1] >= 4:
+            x, y, yaw = from_goal_frame(goal, predicted[1:, 0], predicted[1:, 1], predicted[1:, 2])
+            configs.append(np.column_stack([x, y, yaw, predicted[1:, 3]]))
+        clearances = self.checker.clearances(np.vstack(configs))
+        now, ahead = float(clearances[0]), float(clearances.min())
+        self.least = min(self.least, now)
+        if ahead < self.need:
+            return replace(
+                step,
+                rear_speed=0.0,
+                trailer_speed=0.0,
+                ok=False,
+                stop=True,
+                status=f"guard: too close to the scene: {ahead:.2f} m {'now' if now < self.need else 'ahead'}",
+            )
+        cap = self.max_speed(now - self.need)
+        if abs(step.rear_speed) <= cap:
+            return step
+        scale = cap / abs(step.rear_speed)
+        return replace(step, rear_speed=step.rear_speed * scale, trailer_speed=step.trailer_speed * scale)

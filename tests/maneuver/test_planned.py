@@ -1,0 +1,82 @@
+"""The planned process (maneuver.planned): plan, track, hand over to the NMPC; no path; records."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from hitchpark.io import to_jsonable
+from hitchpark.maneuver import ManeuverResult, ManeuverSettings, ProcessSettings, park
+from hitchpark.maneuver.process import direction_segments_of
+from hitchpark.maneuver.result import StageResult
+from hitchpark.model import VehicleTrailer
+from hitchpark.model.scene import Obstacle, Scene
+from hitchpark.model.state import Pose, State
+
+V = VehicleTrailer()
+
+
+@pytest.fixture(scope="module")
+def planned():
+    return park(V, State(10.0, 3.0, 0.3, 0.0))
+
+
+def test_a_planned_maneuver_parks_and_records_its_plans(planned):
+    r = planned
+    assert r.success, r.detail
+    assert r.plans and r.plans[0].status == "found" and r.planning_s > 0
+    assert {s.controller for s in r.stages} >= {"tracking", "nmpc"}
+    assert r.stages[-1].controller == "nmpc" and r.stages[-1].kind == "reverse"
+    tr = r.trajectory
+    assert np.all(np.abs(tr["front_steer"]) <= V.max_steer) and np.all(np.abs(tr["hitch"]) <= V.max_hitch)
+    rates = np.abs(np.diff(tr["front_steer_cmd"])) / np.diff(tr["t"])
+    assert np.all(rates <= V.max_steer_rate + 1e-9)
+
+
+def test_a_planned_maneuver_round_trips_through_json(planned):
+    data = json.loads(json.dumps(to_jsonable(planned.to_dict())))
+    assert data["planning_s"] == pytest.approx(planned.planning_s)
+    assert data["direction_switches"] == planned.direction_switches
+    back = ManeuverResult.from_dict(data)
+    assert back.plans[0].status == planned.plans[0].status
+    for column, values in planned.plans[0].path.items():
+        np.testing.assert_allclose(back.plans[0].path[column], values)
+    assert [s.controller for s in back.stages] == [s.controller for s in planned.stages]
+
+
+def test_a_start_on_the_goal_line_reverses_straight_in_without_a_plan():
+    r = park(V, State(5.0, 0.0, 0.0, 0.0))
+    assert r.success and r.plans == () and r.direction_switches == 0
+    assert {s.kind for s in r.stages} == {"reverse"}
+
+
+def test_a_blocked_goal_ends_as_no_path_with_the_car_standing():
+    box = Obstacle("crate on the goal", ((-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)))
+    r = park(V, State(10.0, 3.0, 0.3, 0.0), scene=Scene((box,)))
+    assert not r.success and r.reason == "no_path" and "planner" in r.detail
+    assert len(r.trajectory) == 1 and r.trajectory["rear_speed"][0] == 0.0
+    assert r.plans[0].status == "no_path"
+
+
+def test_the_staged_process_is_still_there():
+    r = park(V, State(10.0, 3.0, 0.3, 0.0), settings=ManeuverSettings(process=ProcessSettings(kind="staged")))
+    assert r.plans == () and r.stages[0].controller == "nmpc"
+
+
+def test_stages_in_a_row_of_one_direction_count_as_one_segment():
+    def stage(kind: str) -> StageResult:
+        return StageResult(kind, 1, 0.0, 0.0, 0.0, 0, 1, "", "tracking")
+
+    assert direction_segments_of([stage("reverse"), stage("reverse")]) == 1
+    assert direction_segments_of([stage("forward"), stage("reverse"), stage("reverse"), stage("forward")]) == 3
+
+
+def test_process_settings_read_from_a_table():
+    s = ManeuverSettings.from_dict({"process": {"kind": "staged", "approach_m": 4.0}, "tracking": {"speed": 0.5}})
+    assert s.process.kind == "staged" and s.process.approach_m == 4.0 and s.tracking.speed == 0.5
+    assert ManeuverSettings.from_dict(s.to_dict()) == s
+    assert math.isclose(ManeuverSettings().process.handover_m, 4.0)
+    assert Pose() == Pose(0.0, 0.0, 0.0)
