@@ -62,6 +62,7 @@ def run_scenario(scenario: Scenario, plant: PlantSettings | None = None) -> Mane
         scenario.settings,
         name=scenario.name,
         plant=plant or scenario.plant,
+        scene=scenario.scene,
     )
 
 

@@ -100,7 +100,7 @@ def _cmd_park(args: argparse.Namespace) -> int:
 
     from ..maneuver.process import park
 
-    result = park(sc.vehicle, sc.start, sc.goal, sc.settings, name=sc.name, plant=sc.plant)  # checks the start
+    result = park(sc.vehicle, sc.start, sc.goal, sc.settings, name=sc.name, plant=sc.plant, scene=sc.scene)
     plots = not args.no_plots
     with staged as stage:
         files = {k: out / p.relative_to(stage) for k, p in save_maneuver(result, stage, plots, plots).items()}
