@@ -34,6 +34,7 @@ __all__ = [
     "format_summary",
     "scan_records",
     "summarize",
+    "trailer_path_length",
 ]
 
 
@@ -166,6 +167,12 @@ RECORD_FIELDS = tuple(f.name for f in fields(CaseRecord))
 _LINE_OPENING = '{"case": '
 
 
+def trailer_path_length(result: ManeuverResult) -> float:
+    """Length of the trailer-axle path of the true motion [m] (summed over the trajectory's rows)."""
+    traj = result.trajectory
+    return float(np.sum(np.hypot(np.diff(traj["x_trailer"]), np.diff(traj["y_trailer"]))))
+
+
 def case_record(result: ManeuverResult, wall_s: float) -> dict[str, Any]:
     """The outcome fields of a sweep record, measured from one maneuver (columns read by name).
 
@@ -189,7 +196,7 @@ def case_record(result: ManeuverResult, wall_s: float) -> dict[str, Any]:
         "max_abs_steer_deg": _finite_or_none(np.degrees(np.max(np.abs(steer)))),
         # One row (stopped at once): the steer never changed.
         "max_abs_steer_rate_deg_s": _finite_or_none(np.degrees(np.max(rates)) if rates.size else 0.0),
-        "path_length_m": _finite_or_none(np.sum(np.hypot(np.diff(traj["x_trailer"]), np.diff(traj["y_trailer"])))),
+        "path_length_m": _finite_or_none(trailer_path_length(result)),
         "maneuver_time_s": _finite_or_none(result.duration),
         "wall_s": _finite_or_none(wall_s),
     }

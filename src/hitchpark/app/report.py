@@ -13,12 +13,13 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import InputError
+from ..checks import InputError, check_choice
 from ..io import StagedFolder, write_json
 from ..maneuver.process import park
 from ..maneuver.result import ManeuverResult
-from ..maneuver.scenario import Scenario, builtin_scenarios
+from ..maneuver.scenario import BUILTIN_ORDER, OBSTACLE_SUITE, Scenario, builtin_scenario, builtin_scenarios
 from ..model.plant import PlantSettings
+from .records import trailer_path_length
 from .workers import WorkerPool
 
 __all__ = [
@@ -26,10 +27,13 @@ __all__ = [
     "FIGURE_FILES",
     "MANEUVER_FILES",
     "PAPER_TABLE5",
+    "SUITES",
     "render_maneuver",
     "reproduce",
     "run_scenario",
     "save_maneuver",
+    "suite_scenarios",
+    "suite_table",
     "summary_entry",
     "table5",
 ]
@@ -51,6 +55,18 @@ PAPER_TABLE5 = {
     "perpendicular": ((0.4134, 4.1443, 30.2587), (0.0011, 0.0114, 0.2324)),
     "random": ((0.0846, -0.6137, -15.2986), (0.0049, -0.0495, -0.9789)),
 }
+
+
+#: The suites ``reproduce --suite`` runs, by name: the paper's four and the scenes of obstacles.
+SUITES = {"paper": BUILTIN_ORDER, "obstacles": OBSTACLE_SUITE}
+
+
+def suite_scenarios(name: str, what: str = "suite") -> list[Scenario]:
+    """The built-in scenarios of the suite ``name`` (a key of :data:`SUITES`), in order."""
+    check_choice(what, name, SUITES)
+    if name == "paper":
+        return builtin_scenarios()
+    return [builtin_scenario(scene) for scene in SUITES[name]]
 
 
 def run_scenario(scenario: Scenario, plant: PlantSettings | None = None) -> ManeuverResult:
@@ -118,6 +134,11 @@ def summary_entry(result: ManeuverResult, file: str) -> dict[str, Any]:
         ],
         "max_abs_front_steer_deg": result.max_abs_front_steer_deg,
         "max_abs_hitch_deg": result.max_abs_hitch_deg,
+        "path_length_m": trailer_path_length(result),
+        "direction_switches": result.direction_switches,
+        "min_clearance_m": result.min_clearance_m,
+        "collision": result.collision,
+        "planning_s": result.planning_s,
         "solve_ms_mean": float(np.mean(solve)) if solve.size else None,
         "solve_ms_max": float(np.max(solve)) if solve.size else None,
     }
@@ -149,6 +170,30 @@ def table5(results: Sequence[ManeuverResult]) -> str:
         if r.name in PAPER_TABLE5:
             p1, p3 = PAPER_TABLE5[r.name]
             lines.append(f"{'  (paper)':<{w[0]}}{cells(*p1)} | {cells(*p3)} |")
+    return "\n".join(lines)
+
+
+def _cell(value: float | None, fmt: str, width: int) -> str:
+    return f"{'-' if value is None else format(value, fmt):>{width}}"
+
+
+def suite_table(results: Sequence[ManeuverResult]) -> str:
+    """One row per scene: parked, trailer-axle path length, direction switches, least clearance, planning and
+    maneuver time. A failure's reason follows its row; ``-`` where there is nothing to measure (no scene)."""
+    head = (
+        f"{'scene':<16}{'parked':>8}{'path [m]':>10}{'switches':>10}{'min clear [m]':>15}{'planning [s]':>14}"
+        f"{'maneuver [s]':>14}"
+    )
+    lines = [head, "-" * len(head)]
+    for r in results:
+        row = (
+            f"{r.name:<16}{'yes' if r.success else 'no':>8}{_cell(trailer_path_length(r), '.2f', 10)}"
+            f"{r.direction_switches:>10}{_cell(r.min_clearance_m, '.3f', 15)}{_cell(r.planning_s, '.2f', 14)}"
+            f"{_cell(r.duration, '.1f', 14)}"
+        )
+        if not r.success:
+            row += f"  {r.reason}" + (f" ({r.detail})" if r.detail else "")
+        lines.append(row)
     return "\n".join(lines)
 
 

@@ -72,12 +72,20 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "reproduce",
-        help="run the paper's four scenarios (Section 6.1, Table 5)",
+        help="run the paper's four scenarios (Section 6.1, Table 5) or the scenes of obstacles",
         description="Park from the four shipped scenarios (parallel, parallel with hitch angle, perpendicular, "
         "random) with the 3-stage process, print Table 5, and write DIR/summary.json and, per scenario, "
-        "DIR/NAME/maneuver.json with figures (Figs. 8-15) and an animation. Exit status 1 if any fails to park.",
+        "DIR/NAME/maneuver.json with figures (Figs. 8-15) and an animation. With --suite obstacles, park in the "
+        "five built-in scenes of obstacles instead (driveway, campsite, curb_parallel, bay, loading_dock) and "
+        "print a table of path length, direction switches, least clearance, planning and maneuver time. "
+        "Exit status 1 if any fails to park.",
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.add_argument(
+        "--suite",
+        metavar="NAME",
+        help="'paper' (the default: the paper's four scenarios) or 'obstacles' (the five scenes of obstacles)",
+    )
     _add_plant_option(p, "instead of the paper's ideal plant")
     p.add_argument("--no-plots", action="store_true", help="write JSON only (no figures, no animation)")
     p.set_defaults(func=_cmd_reproduce)

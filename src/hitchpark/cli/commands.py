@@ -63,15 +63,20 @@ def _cmd_ik_study(args: argparse.Namespace) -> int:
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    from ..app.report import reproduce, table5
+    from ..app.report import reproduce, suite_scenarios, suite_table, table5
     from ..outputs import check_output_folder
 
+    scenarios = suite_scenarios(args.suite, "--suite") if args.suite is not None else None
     out = check_output_folder(args.out, "--out")
     plots = not args.no_plots
-    results, summary = reproduce(out, plots=plots, animation=plots, progress=print, plant=_plant(args))
+    results, summary = reproduce(out, scenarios, plots=plots, animation=plots, progress=print, plant=_plant(args))
     print()
-    print("Table 5 (trailer distance error, orientation error, final hitch angle):")
-    print(table5(results))
+    if args.suite in (None, "paper"):
+        print("Table 5 (trailer distance error, orientation error, final hitch angle):")
+        print(table5(results))
+    else:
+        print(f"Suite {args.suite} (path of the trailer axle, least clearance of the real car's bodies):")
+        print(suite_table(results))
     print(f"\nsummary: {summary}")
     return 0 if all(r.success for r in results) else 1
 

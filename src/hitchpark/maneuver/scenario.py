@@ -62,6 +62,7 @@ from .settings import SETTINGS_TABLES, ManeuverSettings
 
 __all__ = [
     "BUILTIN_ORDER",
+    "OBSTACLE_SUITE",
     "Scenario",
     "StartRegion",
     "builtin_scenario",
@@ -72,6 +73,9 @@ __all__ = [
 
 #: The paper's four scenarios, in its order.
 BUILTIN_ORDER = ("parallel", "parallel_hitch", "perpendicular", "random")
+
+#: The built-in scenes of obstacles (``reproduce --suite obstacles``), in the issue's order.
+OBSTACLE_SUITE = ("driveway", "campsite", "curb_parallel", "bay", "loading_dock")
 
 #: A scenario's name names its output folder: letters, digits, '_', '.', '-', not starting with a dot.
 NAME_PATTERN = r"[A-Za-z0-9][A-Za-z0-9_.-]*"
