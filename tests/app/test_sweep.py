@@ -72,7 +72,9 @@ def one_error_line(err: str) -> str:
 
 
 def without_wall(records: list[CaseRecord] | tuple[CaseRecord, ...]) -> list[dict]:
-    return [{k: v for k, v in r.to_dict().items() if k != "wall_s"} for r in sorted(records, key=lambda r: r.case)]
+    """The records less their wall-clock times (``wall_s``, ``planning_s``)."""
+    clocks = ("wall_s", "planning_s")
+    return [{k: v for k, v in r.to_dict().items() if k not in clocks} for r in sorted(records, key=lambda r: r.case)]
 
 
 def read_lines(path: Path) -> list[dict]:
@@ -207,7 +209,9 @@ def test_each_worker_builds_one_controller():
 
 
 def make_record(case: int, reason: str = "parked", **values) -> CaseRecord:
-    fields = {name: None for name in RECORD_FIELDS if name not in ("case", "start", "success", "reason", "stages")}
+    fixed = ("case", "start", "success", "reason", "stages", "collision", "direction_switches")
+    fields: dict = {name: None for name in RECORD_FIELDS if name not in fixed}
+    fields.update(collision=False, direction_switches=0)
     fields.update(values)
     return CaseRecord(
         case=case, start=Start(1.0, 2.0, 3.0, 4.0), success=reason == "parked", reason=reason, stages=3, **fields
@@ -421,8 +425,9 @@ def test_cli_sweep_writes_records_summary_and_map(tmp_path, capsys):
         start = Start(**record["start"])
         result = park(VehicleTrailer(), start.state(), GOAL, ManeuverSettings(), name=f"case {record['case']}")
         assert result.settings.nmpc.kind == "full" and result.plant.kind == "realistic"
-        assert {k: v for k, v in record.items() if k not in ("case", "start", "wall_s")} == {
-            k: v for k, v in case_record(result, math.nan).items() if k != "wall_s"
+        clocks = ("wall_s", "planning_s")  # wall-clock times
+        assert {k: v for k, v in record.items() if k not in ("case", "start", *clocks)} == {
+            k: v for k, v in case_record(result, math.nan).items() if k not in clocks
         }
     data = json.loads(summary.read_text(encoding="utf-8"))
     assert data["n"] == 2 and data["seed"] == 1 and data["region"]["hitch_deg"] == [-5.0, 5.0]

@@ -88,7 +88,12 @@ _OUTCOME_FLOATS = (
     "path_length_m",
     "maneuver_time_s",
     "wall_s",
+    "min_clearance_m",
+    "planning_s",
 )
+
+#: Fields that records written before the scenes of obstacles lack: a file holding such records is refused.
+_NEW_FIELDS = ("collision", "min_clearance_m", "direction_switches", "planning_s")
 
 
 @dataclass(frozen=True)
@@ -99,7 +104,11 @@ class CaseRecord:
     ``success``, ``reason`` and ``stages`` (how many) are the maneuver's; the errors and the final
     hitch angle are those at the end of the last stage; the maxima are over every row of the
     trajectory; ``path_length_m`` is the length of the trailer-axle path, ``maneuver_time_s`` the
-    simulated time and ``wall_s`` the wall-clock time the case took. Floats are None when not finite.
+    simulated time and ``wall_s`` the wall-clock time the case took. ``collision``: a body of the real car
+    touched an obstacle or left the area; ``min_clearance_m``: the least clearance of its bodies from the scene
+    over the motion (None in open space); ``direction_switches``: changes of direction of the car's motion;
+    ``planning_s``: all the planning of the maneuver, replans included (0 when it planned nothing). Floats are
+    None when not finite.
     """
 
     case: int
@@ -116,6 +125,10 @@ class CaseRecord:
     path_length_m: float | None
     maneuver_time_s: float | None
     wall_s: float | None
+    collision: bool
+    min_clearance_m: float | None
+    direction_switches: int
+    planning_s: float | None
 
     def to_dict(self) -> dict[str, Any]:
         data = asdict(self)
@@ -133,16 +146,21 @@ class CaseRecord:
             raise InputError(f"a record must be a JSON object, got {type(data).__name__}")
         missing = [name for name in RECORD_FIELDS if name not in data]
         extra = sorted(set(data) - set(RECORD_FIELDS))
+        if missing and set(missing) == set(_NEW_FIELDS) and not extra:
+            raise InputError(
+                f"the record is of an older hitchpark (it lacks {', '.join(_NEW_FIELDS)}, and its maneuver was "
+                "not planned); run the sweep into a new file"
+            )
         if missing or extra:
             what = f"lacks {missing[0]!r}" if missing else f"has the unknown key {extra[0]!r}"
             raise InputError(f"the record {what}")
-        case, stages = data["case"], data["stages"]
-        if not isinstance(case, int) or isinstance(case, bool) or case < 0:
-            raise InputError(f"case must be an integer >= 0, got {case!r}")
-        if not isinstance(stages, int) or isinstance(stages, bool) or stages < 0:
-            raise InputError(f"stages must be an integer >= 0, got {stages!r}")
-        if not isinstance(data["success"], bool):
-            raise InputError(f"success must be true or false, got {data['success']!r}")
+        for name in ("case", "stages", "direction_switches"):
+            value = data[name]
+            if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+                raise InputError(f"{name} must be an integer >= 0, got {value!r}")
+        for name in ("success", "collision"):
+            if not isinstance(data[name], bool):
+                raise InputError(f"{name} must be true or false, got {data[name]!r}")
         if not isinstance(data["reason"], str):
             raise InputError(f"reason must be a string, got {data['reason']!r}")
         floats: dict[str, float | None] = {}
@@ -152,11 +170,13 @@ class CaseRecord:
                 raise InputError(f"{name} must be a finite number or null, got {value!r}")
             floats[name] = None if value is None else float(value)
         return cls(
-            case=case,
+            case=data["case"],
             start=Start.from_dict(data["start"]),
             success=data["success"],
             reason=data["reason"],
-            stages=stages,
+            stages=data["stages"],
+            collision=data["collision"],
+            direction_switches=data["direction_switches"],
             **floats,
         )
 
@@ -199,6 +219,10 @@ def case_record(result: ManeuverResult, wall_s: float) -> dict[str, Any]:
         "path_length_m": _finite_or_none(trailer_path_length(result)),
         "maneuver_time_s": _finite_or_none(result.duration),
         "wall_s": _finite_or_none(wall_s),
+        "collision": bool(result.collision),
+        "min_clearance_m": None if (clearance := result.min_clearance_m) is None else _finite_or_none(clearance),
+        "direction_switches": int(result.direction_switches),
+        "planning_s": _finite_or_none(result.planning_s),
     }
 
 
@@ -330,9 +354,11 @@ def summarize(records: Sequence[CaseRecord]) -> dict[str, Any]:
 
     ``n``, ``parked`` (how many succeeded), ``success_rate``, ``by_reason`` (count per reason,
     ``"parked"`` first and always present, then the most frequent), the median and 90th percentile
-    (linear interpolation) of ``path_length_m`` and ``maneuver_time_s``, ``wall_s`` summed over the
-    cases, and the largest ``max_abs_steer_deg``, ``max_abs_steer_rate_deg_s`` and ``max_abs_hitch_deg``.
-    Null values are left out of each statistic.
+    (linear interpolation) of ``path_length_m``, ``maneuver_time_s`` and ``planning_s``, ``wall_s`` summed over
+    the cases, and the largest ``max_abs_steer_deg``, ``max_abs_steer_rate_deg_s`` and ``max_abs_hitch_deg``;
+    ``collisions`` (cases where a body touched the scene or left the area), ``min_clearance_m`` (the least over
+    the cases; None in open space), ``direction_switches`` (its median and p90) and ``no_switch`` (cases parked
+    without a change of direction). Null values are left out of each statistic.
     """
     n = len(records)
     parked = sum(r.success for r in records)
@@ -347,7 +373,13 @@ def summarize(records: Sequence[CaseRecord]) -> dict[str, Any]:
         "path_length_m": _median_p90(_values(records, "path_length_m")),
         "maneuver_time_s": _median_p90(_values(records, "maneuver_time_s")),
         "wall_s": float(np.sum(_values(records, "wall_s"))),
+        "collisions": sum(r.collision for r in records),
+        "planning_s": _median_p90(_values(records, "planning_s")),
+        "direction_switches": _median_p90(_values(records, "direction_switches")),
+        "no_switch": sum(r.success and r.direction_switches == 0 for r in records),
     }
+    clearances = _values(records, "min_clearance_m")
+    summary["min_clearance_m"] = float(np.min(clearances)) if clearances.size else None
     for name in ("max_abs_steer_deg", "max_abs_steer_rate_deg_s", "max_abs_hitch_deg"):
         values = _values(records, name)
         summary[name] = float(np.max(values)) if values.size else None
@@ -363,6 +395,7 @@ def format_summary(summary: Mapping[str, Any]) -> str:
     n, rate = summary["n"], summary["success_rate"]
     failed = [f"{reason} {count}" for reason, count in summary["by_reason"].items() if reason != "parked" and count]
     path, time = summary["path_length_m"], summary["maneuver_time_s"]
+    planning, switches = summary["planning_s"], summary["direction_switches"]
     return "\n".join(
         [
             f"parked {summary['parked']}/{n} ({_num(None if rate is None else 100 * rate, '.1f')}%)"
@@ -372,6 +405,12 @@ def format_summary(summary: Mapping[str, Any]) -> str:
             f"max |front steer| {_num(summary['max_abs_steer_deg'], '.2f')} deg, "
             f"max |steer rate| {_num(summary['max_abs_steer_rate_deg_s'], '.1f')} deg/s, "
             f"max |hitch| {_num(summary['max_abs_hitch_deg'], '.2f')} deg",
+            f"collisions {summary['collisions']}"
+            + (f" (starts skipped as they collide: {summary['skipped']})" if "skipped" in summary else "")
+            + f"; least clearance {_num(summary['min_clearance_m'], '.3f')} m; "
+            f"parked without a change of direction {summary['no_switch']}/{n}; "
+            f"direction switches: median {_num(switches['median'], '.0f')}, p90 {_num(switches['p90'], '.1f')}",
+            f"planning time [s]: median {_num(planning['median'], '.2f')}, p90 {_num(planning['p90'], '.2f')}",
             f"wall clock summed over the cases: {summary['wall_s']:.1f} s",
         ]
     )

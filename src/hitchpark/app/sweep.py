@@ -1,11 +1,13 @@
 """Sweeps: park from many random starts and see where the maneuver succeeds.
 
 A sweep is a pure function of its :class:`SweepConfig`: the ``n`` starts are drawn up front
-from ``numpy.random.default_rng(seed)``, uniformly over a :class:`Region` of the parking frame
-(trailer-axle position and heading, hitch angle; goal at the origin, heading 0), so case ``i``
-is the same whatever runs it. Each case parks once; its :class:`~.records.CaseRecord` is
-appended to a JSONL file as soon as it is known, and a sweep run again on the same file runs
-only the cases it lacks (:func:`run_sweep`).
+from ``numpy.random.default_rng(seed)``, uniformly over a :class:`Region` of the world frame
+(trailer-axle position and heading, hitch angle; by default the goal is at the origin, heading 0,
+so it is the parking frame), so case ``i`` is the same whatever runs it. Over a scene of obstacles
+(a scenario's, :func:`config_from_scenario`), a start that does not keep ``success.min_clearance_m``
+clear of it is drawn again, and counted as skipped (:func:`draw_clear_starts`). Each case parks once;
+its :class:`~.records.CaseRecord` is appended to a JSONL file as soon as it is known, and a sweep run
+again on the same file runs only the cases it lacks (:func:`run_sweep`).
 """
 
 from __future__ import annotations
@@ -26,7 +28,9 @@ from ..control.nmpc import FullNMPC, TrailerNMPC, make_nmpc
 from ..io import read_toml
 from ..maneuver.process import park
 from ..maneuver.result import ManeuverSettings
+from ..maneuver.scenario import Scenario, check_start_clear
 from ..model.plant import PlantSettings, load_plant
+from ..model.scene import Scene
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
 from ..outputs import check_output_file
@@ -42,7 +46,9 @@ __all__ = [
     "SweepConfig",
     "SweepOutcome",
     "build_config",
+    "config_from_scenario",
     "controller_for",
+    "draw_clear_starts",
     "draw_starts",
     "load_settings",
     "parse_region",
@@ -68,6 +74,8 @@ def _fmt(value: float) -> str:
 @dataclass(frozen=True)
 class Region:
     """Where starts are drawn: ``(lo, hi)`` of the trailer-axle x, y [m], yaw [deg] and hitch angle [deg].
+
+    In the world frame of the sweep's goal and scene; with the default goal (origin, heading 0) the parking frame.
 
     Each range is finite with lo <= hi, |x|, |y| <= ``MAX_COORDINATE`` and |yaw| <= ``MAX_YAW``;
     the hitch range is checked against a vehicle's jackknife limit by :meth:`check_vehicle`.
@@ -159,11 +167,70 @@ def draw_starts(seed: int, n: int, region: Region) -> list[Start]:
     return [Start(*(float(v) for v in row)) for row in values]
 
 
+#: At most this many draws per case (and at least ``_MIN_DRAWS``) look for starts clear of a scene.
+_DRAWS_PER_CASE = 100
+_MIN_DRAWS = 10_000
+
+
+def draw_clear_starts(
+    seed: int, n: int, region: Region, keep: Callable[[Start], bool] | None = None
+) -> tuple[list[Start], int]:
+    """The ``n`` starts of a sweep and how many draws were skipped: the draws of :func:`draw_starts`, in order,
+    less those ``keep`` refuses (starts that collide with a scene).
+
+    Case i is the i-th kept draw, so the first cases still do not depend on ``n``. Without ``keep`` it is
+    :func:`draw_starts` and nothing is skipped. Raises :class:`InputError` if too few draws are kept
+    (fewer than ``n`` in ``max(10000, 100 n)``).
+    """
+    if keep is None:
+        return draw_starts(seed, n, region), 0
+    seed = check_int("seed", seed, 0)
+    n = check_int("n", n, 1, MAX_CASES)
+    lo, hi = region.bounds()
+    rng = np.random.default_rng(seed)  # drawn in batches: the stream is the same as one draw of all rows
+    starts: list[Start] = []
+    drawn, limit = 0, max(_MIN_DRAWS, _DRAWS_PER_CASE * n)
+    while len(starts) < n:
+        if drawn >= limit:
+            raise InputError(
+                f"only {len(starts)} of {drawn} starts drawn from the region {region} keep clear of the scene "
+                f"(success.min_clearance_m), fewer than --n {n}: move or widen the start region"
+            )
+        batch = min(limit - drawn, max(64, 2 * (n - len(starts))))
+        for row in np.clip(lo + rng.random((batch, 4)) * (hi - lo), lo, hi):
+            drawn += 1
+            start = Start(*(float(v) for v in row))
+            if keep(start):
+                starts.append(start)
+                if len(starts) == n:
+                    break
+    return starts, drawn - n
+
+
+@dataclass(frozen=True)
+class _ClearOf:
+    """Keeps a start whose bodies (the real car's) are ``min_clearance`` clear of ``scene`` and inside its area."""
+
+    vehicle: VehicleTrailer
+    scene: Scene
+    min_clearance: float
+
+    def __call__(self, start: Start) -> bool:
+        try:
+            check_start_clear(self.vehicle, self.scene, start.state(), self.min_clearance)
+        except InputError:
+            return False
+        return True
+
+
 @dataclass(frozen=True, kw_only=True)
 class SweepConfig:
     """Everything a sweep's results depend on. Picklable: it travels to the workers.
 
-    ``plant`` is passed through to :func:`~hitchpark.maneuver.park` as ``plant=`` when it is not None.
+    ``plant`` is passed through to :func:`~hitchpark.maneuver.park` as ``plant=`` when it is not None;
+    ``goal`` and ``scene`` as they are (default: the origin heading 0, open space). Over a scene, starts
+    that do not keep ``settings.success.min_clearance_m`` clear of it are drawn again (:meth:`draw`).
+    ``scenario`` names the scenario the sweep came from ("" if none), for its summary.
     """
 
     vehicle: VehicleTrailer = field(default_factory=VehicleTrailer)
@@ -172,15 +239,31 @@ class SweepConfig:
     region: Region = DEFAULT_REGION
     seed: int
     n: int
+    goal: Pose = GOAL
+    scene: Scene = field(default_factory=Scene)
+    scenario: str = ""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "seed", check_int("seed", self.seed, 0))
         object.__setattr__(self, "n", check_int("n", self.n, 1, MAX_CASES))
         self.vehicle.require_hitch_offset()
         self.region.check_vehicle(self.vehicle)
+        self.region.check_vehicle(self.plant_vehicle)
+
+    @property
+    def plant_vehicle(self) -> VehicleTrailer:
+        """The real car's lengths and limits: those whose bodies must keep clear of the scene."""
+        return (self.plant or PlantSettings()).resolve_vehicle(self.vehicle)
+
+    def draw(self) -> tuple[list[Start], int]:
+        """The starts of the cases, and how many draws were skipped as they collide with the scene."""
+        keep = None
+        if not self.scene.is_empty:
+            keep = _ClearOf(self.plant_vehicle, self.scene, self.settings.success.min_clearance_m)
+        return draw_clear_starts(self.seed, self.n, self.region, keep)
 
     def starts(self) -> list[Start]:
-        return draw_starts(self.seed, self.n, self.region)
+        return self.draw()[0]
 
 
 def settings_from_dict(data: Mapping[str, Any]) -> ManeuverSettings:
@@ -205,16 +288,58 @@ def build_config(
     vehicle: VehicleTrailer | None = None,
     settings_file: str | Path | None = None,
     plant_file: str | Path | None = None,
+    scenario: Scenario | None = None,
 ) -> SweepConfig:
-    """A :class:`SweepConfig` from the command's options: region text and settings and plant files."""
+    """A :class:`SweepConfig` from the command's options: region text and settings and plant files.
+
+    With ``scenario``, :func:`config_from_scenario`: its start region, goal, scene, vehicle, settings and
+    plant, the last three replaced by ``vehicle`` and the files if given; ``region`` is refused then.
+    """
+    settings = load_settings(settings_file) if settings_file is not None else None
+    plant = load_plant(plant_file) if plant_file is not None else None
+    if scenario is not None:
+        if region is not None:
+            raise InputError("give --region or --scenario, not both: a scenario's starts come from its [start_region]")
+        return config_from_scenario(scenario, n=n, seed=seed, vehicle=vehicle, settings=settings, plant=plant)
     vehicle = vehicle or VehicleTrailer()
     return SweepConfig(
         vehicle=vehicle,
-        settings=load_settings(settings_file) if settings_file is not None else ManeuverSettings(),
-        plant=load_plant(plant_file) if plant_file is not None else None,
+        settings=settings or ManeuverSettings(),
+        plant=plant,
         region=parse_region(region, vehicle) if region is not None else DEFAULT_REGION,
         seed=seed,
         n=n,
+    )
+
+
+def config_from_scenario(
+    scenario: Scenario,
+    *,
+    n: int,
+    seed: int,
+    vehicle: VehicleTrailer | None = None,
+    settings: ManeuverSettings | None = None,
+    plant: PlantSettings | None = None,
+) -> SweepConfig:
+    """A sweep over the scenario's scene: starts from its ``[start_region]`` (world frame), to its goal.
+
+    Its vehicle, settings and plant unless given. :class:`InputError` if the scenario has no start region.
+    """
+    if scenario.start_region is None:
+        where = f" ({scenario.path})" if scenario.path is not None else ""
+        raise InputError(
+            f"scenario {scenario.name}{where} has no [start_region]: a sweep over it draws its starts there"
+        )
+    return SweepConfig(
+        vehicle=vehicle or scenario.vehicle,
+        settings=settings or scenario.settings,
+        plant=plant or scenario.plant,
+        region=Region(**scenario.start_region.to_dict()),  # type: ignore[arg-type]
+        seed=seed,
+        n=n,
+        goal=scenario.goal,
+        scene=scenario.scene,
+        scenario=scenario.name,
     )
 
 
@@ -253,11 +378,12 @@ def run_case(task: CaseTask) -> CaseRecord:
     result = park(
         config.vehicle,
         task.start.state(),
-        GOAL,
+        config.goal,
         config.settings,
         name=f"case {task.case}",
         controller=controller,
         plant=config.plant,
+        scene=config.scene,
     )
     wall = time.perf_counter() - t0
     return CaseRecord(case=task.case, start=task.start, **case_record(result, wall))
@@ -301,10 +427,11 @@ def run_sweep(
     process); it is started only if there is something to run. ``progress`` shows a bar on stderr.
 
     Returns the records of all n cases, old and new, and their summary (:func:`~.records.summarize`,
-    plus the seed and region).
+    plus the seed, the region, ``skipped``: the starts drawn again as they collide with the scene, and, from
+    a scenario, its name and goal).
     """
     out = check_output_file(out, "--out", append=True)  # a FIFO, a link, a device: refused, never read
-    starts = config.starts()
+    starts, skipped = config.draw()
     existing = scan_records(out, starts)
     records = dict(existing.records)
     todo = [CaseTask(config, case, start) for case, start in enumerate(starts) if case not in records]
@@ -331,7 +458,9 @@ def run_sweep(
                 bar.leave = False
                 raise
     ordered = tuple(records[case] for case in range(config.n))
-    summary = {**summarize(ordered), "seed": config.seed, "region": config.region.to_dict()}
+    summary = {**summarize(ordered), "seed": config.seed, "region": config.region.to_dict(), "skipped": skipped}
+    if config.scenario:
+        summary.update(scenario=config.scenario, goal=config.goal.to_dict())
     return SweepOutcome(
         records=ordered,
         summary=summary,

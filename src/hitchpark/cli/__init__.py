@@ -99,7 +99,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--start", metavar="X,Y,YAW_DEG,HITCH_DEG", help="trailer-axle pose and hitch angle (world frame)")
     p.add_argument("--goal", metavar="X,Y,YAW_DEG", help="goal trailer-axle pose (default 0,0,0 or the scenario's)")
-    p.add_argument("--scenario", type=Path, metavar="FILE.toml", help="scenario file; --start/--goal override it")
+    p.add_argument(
+        "--scenario",
+        type=Path,
+        metavar="FILE.toml|NAME",
+        help="scenario file, or a built-in one by name (driveway, bay, parallel, ...); --start/--goal override it",
+    )
     _add_vehicle_options(p)
     _add_plant_option(p, "(default: the scenario's [plant], else the realistic car)")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
@@ -120,12 +125,21 @@ def build_parser() -> argparse.ArgumentParser:
         "sweep",
         help="park from many random starts and map where it succeeds",
         description="Park from N starts drawn uniformly from a region of the parking frame (goal at the origin, "
-        "heading 0) with a seeded generator, one JSON line per case in --out as each finishes. Run again with "
-        "the same --out to resume: finished cases are kept, only the missing ones run. Exit status 0 when every "
-        "case ran, parked or not.",
+        "heading 0) with a seeded generator, one JSON line per case in --out as each finishes. With --scenario, "
+        "the starts come from the scenario's [start_region] (world frame), to its goal among its obstacles, with "
+        "its vehicle, settings and plant; starts that do not keep success.min_clearance_m clear of the scene are "
+        "drawn again and counted as skipped. Run again with the same --out to resume: finished cases are kept, "
+        "only the missing ones run. Exit status 0 when every case ran, parked or not.",
     )
     p.add_argument("--n", required=True, type=int, metavar="N", help="number of starts (cases)")
     p.add_argument("--seed", required=True, type=int, metavar="S", help="seed of the random starts (>= 0)")
+    p.add_argument(
+        "--scenario",
+        type=Path,
+        metavar="FILE.toml|NAME",
+        help="sweep over a scenario's scene (a file, or a built-in one by name, e.g. bay): starts from its "
+        "[start_region]; --settings, --plant and the vehicle options override its own",
+    )
     p.add_argument(
         "--region",
         metavar="x=LO:HI,y=LO:HI,yaw=LO:HI,hitch=LO:HI",

@@ -7,12 +7,15 @@ import math
 import re
 import signal
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from ..checks import InputError
 from ..model.plant import PlantSettings, load_plant
 from ..model.state import Pose, State, check_pose
 from ..model.vehicle import VehicleTrailer, load_vehicle, vehicle_from_dict
+
+if TYPE_CHECKING:
+    from ..maneuver.scenario import Scenario
 
 _VEHICLE_OVERRIDES = ("wheelbase", "hitch_offset", "trailer_length")
 
@@ -99,6 +102,24 @@ def parse_goal(text: str) -> Pose:
     """``X,Y,YAW_DEG`` -> goal :class:`Pose` of the trailer axle."""
     x, y, yaw = _floats(text, 3, "--goal", "X,Y,YAW_DEG")
     return Pose(x, y, math.radians(yaw))
+
+
+def scenario_from_arg(path: Path) -> Scenario:
+    """``--scenario``: a scenario file, or the name of one built in (``driveway``, ``parallel``, ...).
+
+    A name is a bare word that is not an existing file; anything else is read as a file.
+    """
+    from ..maneuver.scenario import BUILTIN_ORDER, OBSTACLE_SUITE, builtin_scenario, load_scenario
+
+    text = str(path)
+    if path.exists() or path.suffix or len(path.parts) != 1:
+        return load_scenario(path)
+    if text not in (*BUILTIN_ORDER, *OBSTACLE_SUITE):
+        raise UsageError(
+            f"--scenario {text}: no such file, nor a built-in scenario (built in: "
+            f"{', '.join((*BUILTIN_ORDER, *OBSTACLE_SUITE))})"
+        )
+    return builtin_scenario(text)
 
 
 def _plant(args: argparse.Namespace) -> PlantSettings | None:

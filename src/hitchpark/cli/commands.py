@@ -7,7 +7,7 @@ import math
 from typing import Any
 
 from ..checks import InputError
-from .arguments import UsageError, _finite, _plant, parse_goal, parse_start, vehicle_from_args
+from .arguments import UsageError, _finite, _plant, parse_goal, parse_start, scenario_from_arg, vehicle_from_args
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
@@ -86,13 +86,13 @@ def _cmd_park(args: argparse.Namespace) -> int:
 
     from ..app.report import MANEUVER_FILES, save_maneuver, summary_entry, table5
     from ..io import StagedFolder
-    from ..maneuver.scenario import Scenario, load_scenario
+    from ..maneuver.scenario import Scenario
 
     staged = StagedFolder(args.out, MANEUVER_FILES, "--out")  # checks --out before any work
     out = staged.target
     if args.scenario is None and args.start is None:
         raise UsageError("give --start X,Y,YAW_DEG,HITCH_DEG or --scenario FILE")
-    sc = load_scenario(args.scenario) if args.scenario is not None else Scenario("park", parse_start(args.start))
+    sc = scenario_from_arg(args.scenario) if args.scenario is not None else Scenario("park", parse_start(args.start))
     changes: dict[str, Any] = {}
     if args.start is not None:
         changes["start"] = parse_start(args.start)
@@ -162,13 +162,15 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     files = check_output_files({"--out": args.out, "--json": args.json, "--map": args.map}, append=["--out"])
     if "--map" in files:
         check_figure_name(files["--map"], "--map")
+    scenario = scenario_from_arg(args.scenario) if args.scenario is not None else None
     config = build_config(
         n=args.n,
         seed=args.seed,
         region=args.region,
-        vehicle=vehicle_from_args(args),
+        vehicle=vehicle_from_args(args, default=scenario.vehicle if scenario else None),
         settings_file=args.settings,
         plant_file=args.plant,
+        scenario=scenario,
     )
     executor = sweep_executor(args.workers, args.dask)
     outcome = run_sweep(config, files["--out"], executor, progress=True)
@@ -177,11 +179,20 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     if "--map" in files:
         from ..viz.sweep import plot_sweep_map
 
-        title = f"Sweep, seed {config.seed}"
-        plot_sweep_map(outcome.records, files["--map"], config.vehicle, config.region, title=title)
+        title = f"Sweep{' of ' + config.scenario if config.scenario else ''}, seed {config.seed}"
+        plot_sweep_map(
+            outcome.records,
+            files["--map"],
+            config.vehicle,
+            config.region,
+            title=title,
+            goal=config.goal,
+            scene=config.scene,
+        )
     cut = ", a cut last line dropped" if outcome.dropped_cut_line else ""
+    where = f"scenario {config.scenario}, " if config.scenario else ""
     print(
-        f"sweep of {config.n} starts (seed {config.seed}, region {config.region}): {outcome.ran} run now in "
+        f"sweep of {config.n} starts ({where}seed {config.seed}, region {config.region}): {outcome.ran} run now in "
         f"{outcome.elapsed_s:.1f} s on {outcome.where}, {outcome.kept} kept from {files['--out']}{cut}"
     )
     print(format_summary(outcome.summary))

@@ -1,4 +1,4 @@
-"""The map of a sweep: where in the parking frame the maneuver parks and where it fails, and why.
+"""The map of a sweep: where the maneuver parks and where it fails, and why, among the scene's obstacles if any.
 
 Matplotlib is imported only inside :func:`plot_sweep_map`.
 """
@@ -13,6 +13,7 @@ import numpy as np
 
 from ..control.nmpc import Pose
 from ..model.geometry import parking_space
+from ..model.scene import Scene
 from ..model.vehicle import VehicleTrailer
 from ..outputs import check_figure_name, replacing
 from . import use_headless_backend
@@ -44,13 +45,16 @@ def plot_sweep_map(
     region: Region | None = None,
     title: str = "",
     tick_m: float = 0.6,
+    goal: Pose | None = None,
+    scene: Scene | None = None,
 ) -> Path:
     """Draw every start of a sweep at its trailer-axle position and write an image (PNG, PDF, SVG) to ``path``.
 
     Parked starts are green dots, each failure reason has its own colour and marker (the legend
     counts them); a short tick of ``tick_m`` metres from each start points along its trailer heading.
-    The parking space of ``vehicle`` (default Table 4) is drawn at the goal (origin, heading +x),
-    and ``region`` (where the starts were drawn), if given, as a dashed box.
+    The parking space of ``vehicle`` (default Table 4) is drawn at ``goal`` (default the origin, heading +x),
+    ``region`` (where the starts were drawn), if given, as a dashed box, and the obstacles and area of
+    ``scene`` near the starts and the goal.
     """
     path = check_figure_name(path, "map")
     use_headless_backend()
@@ -58,9 +62,26 @@ def plot_sweep_map(
     from matplotlib.collections import LineCollection
 
     vehicle = vehicle or VehicleTrailer()
+    goal = goal or Pose()
     fig, ax = plt.subplots(figsize=(9.5, 8.0), layout="constrained")
     try:
-        space = parking_space(vehicle, Pose())
+        space = parking_space(vehicle, goal)
+        if scene is not None and not scene.is_empty:
+            from .common import AREA_EDGE, OBSTACLE_EDGE, OBSTACLE_FACE, Extent
+            from .rig import draw_scene, near_scene
+
+            ext = Extent()
+            ext.add(space)
+            ext.add(np.array([[r.start.x, r.start.y] for r in records]))
+            if region is not None:
+                ext.add(np.array([[region.x[0], region.y[0]], [region.x[1], region.y[1]]]))
+            near_scene(scene, ext)
+            draw_scene(ax, scene, ext)
+            ext.apply(ax)
+            if scene.obstacles:  # legend entries: draw_scene's artists carry no label
+                ax.fill([], [], fc=OBSTACLE_FACE, ec=OBSTACLE_EDGE, label="obstacle")
+            if scene.area is not None:
+                ax.plot([], [], color=AREA_EDGE, lw=1.2, ls="--", label="area boundary")
         ax.fill(
             space[:, 0],
             space[:, 1],
@@ -72,12 +93,12 @@ def plot_sweep_map(
         )
         ax.annotate(
             "",
-            xy=(1.5, 0.0),
-            xytext=(0.0, 0.0),
+            xy=(goal.x + 1.5 * np.cos(goal.yaw), goal.y + 1.5 * np.sin(goal.yaw)),
+            xytext=(goal.x, goal.y),
             arrowprops={"arrowstyle": "-|>", "color": "black", "lw": 1.5},
             zorder=4,
         )
-        ax.plot([0.0], [0.0], marker="*", ms=14, color="black", ls="none", zorder=5, label="goal (trailer axle)")
+        ax.plot([goal.x], [goal.y], marker="*", ms=14, color="black", ls="none", zorder=5, label="goal (trailer axle)")
         if region is not None:
             (x0, x1), (y0, y1) = region.x, region.y
             ax.plot(
@@ -122,7 +143,10 @@ def plot_sweep_map(
         head = title or "Sweep"
         rate = f"{100 * parked / n:.1f}%" if n else "-"
         ax.set_title(f"{head}: parked {parked} of {n} starts ({rate})\nticks point along the trailer heading")
-        ax.set_xlabel("x of the trailer axle [m] (parking frame, goal at the origin heading +x)")
+        if goal == Pose():
+            ax.set_xlabel("x of the trailer axle [m] (parking frame, goal at the origin heading +x)")
+        else:
+            ax.set_xlabel("x of the trailer axle [m] (world frame)")
         ax.set_ylabel("y of the trailer axle [m]")
         ax.set_aspect("equal", adjustable="datalim")
         ax.autoscale_view()
