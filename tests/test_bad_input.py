@@ -95,6 +95,12 @@ CLI_CASES: list[tuple[str, list[str], str]] = [
     ("empty output path", ["park", "--start", "10,3,0,0", "--out", ""], "--out is empty"),
     ("map of an unknown image format", ["sweep", "--n", "2", "--seed", "1", "--out", "{out}/s.jsonl",
                                         "--map", "{out}/m.txt"], "must end in .png"),
+    ("unknown suite", ["reproduce", "--suite", "all", "--out", "{out}"], "--suite must be one of"),
+    ("unknown built-in scenario", ["park", "--scenario", "garage", "--out", "{out}"], "nor a built-in scenario"),
+    ("sweep over a scenario without a start region", ["sweep", "--scenario", "parallel", "--n", "2", "--seed",
+                                                       "1", "--out", "{out}/s.jsonl"], "has no [start_region]"),
+    ("region and scenario both", ["sweep", "--scenario", "bay", "--region", "x=1:2", "--n", "2", "--seed", "1",
+                                  "--out", "{out}/s.jsonl"], "not both"),
 ]
 
 
