@@ -1,4 +1,4 @@
-"""``hitchpark sweep --scenario``: starts from a scene's start region, redrawn where they collide, the scene's fields."""
+"""``hitchpark sweep --scenario``: starts from a scene's start region, colliding draws redrawn, the scene's fields."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from hitchpark import InputError
 from hitchpark.app import CaseRecord, draw_starts, run_sweep, scan_records
 from hitchpark.app import sweep as sweep_module
 from hitchpark.app.records import RECORD_FIELDS
-from hitchpark.app.sweep import Region, SweepConfig, config_from_scenario, draw_clear_starts
+from hitchpark.app.sweep import Region, config_from_scenario, draw_clear_starts
 from hitchpark.cli import EXIT_BAD_INPUT, main
 from hitchpark.maneuver.scenario import builtin_scenario, check_start_clear, load_scenario
 
