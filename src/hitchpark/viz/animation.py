@@ -21,7 +21,7 @@ from .common import (
     outcome,
     stage_color,
 )
-from .rig import draw_goal, draw_scene, near_scene, rig_outlines
+from .rig import draw_goal, draw_plans, draw_scene, near_scene, rig_outlines
 
 if TYPE_CHECKING:
     from ..maneuver.result import ManeuverResult
@@ -47,7 +47,7 @@ def animate_maneuver(
     """Write an animated GIF of the whole maneuver.
 
     Each frame shows the parking space and goal heading, the scene's obstacles and area
-    boundary (near the motion), the bodies (with steered
+    boundary (near the motion), the planned paths of the trailer axle, the bodies (with steered
     front wheels), the trailer-axle path so far coloured by stage, the rear-axle path
     so far, and a header with time, stage, rear-axle speed, front steer, hitch angle
     and the trailer's distance and orientation errors. The rows are subsampled evenly
@@ -107,6 +107,7 @@ def animate_maneuver(
     fig, ax = plt.subplots(figsize=(width, height), dpi=dpi, constrained_layout=True)
     draw_scene(ax, result.scene, ext, margin=0.6)
     draw_goal(ax, result)
+    draw_plans(ax, result)
     ext.apply(ax, margin=0.6)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [m]")

@@ -3,8 +3,10 @@
 ``plot_maneuver`` writes three PNG files:
 
 * ``motion.png`` (Figs. 8/10/12/14 a-d): one panel per stage with the trailer-axle
-  and rear-axle paths and the bodies at several instants, plus the overall trajectory; with a
-  scene, its obstacles and area boundary and, where the bodies came closest to it, a mark;
+  and rear-axle paths and the bodies at several instants, plus the overall trajectory; the swept
+  bodies of the real car (faint outlines every metre of travel) and the planned paths of the trailer
+  axle (thin, dashed); with a scene, its obstacles and area boundary and, where the bodies came
+  closest to it, a mark;
 * ``inputs.png`` (Figs. 8e-f, drawn by :mod:`.inputs`): front steer and its rate, rear-axle
   speed and hitch angle against time, commanded, actual and measured where the trajectory has them;
 * ``nmpc.png`` (Figs. 9/11/13/15): per reverse stage, the NMPC cost, the virtual
@@ -46,7 +48,20 @@ from .common import (
     step_series,
 )
 from .inputs import inputs_figure
-from .rig import draw_contact, draw_goal, draw_paths, draw_rig, draw_scene, near_scene, rig_outlines
+from .rig import (
+    PLAN_STYLE,
+    SWEPT_EVERY_M,
+    draw_contact,
+    draw_goal,
+    draw_paths,
+    draw_plans,
+    draw_rig,
+    draw_scene,
+    draw_swept,
+    near_scene,
+    rig_outlines,
+    swept_outlines,
+)
 
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
@@ -101,9 +116,12 @@ def motion_figure(result: ManeuverResult, snapshot_every: float = 2.0) -> Figure
     nrows = math.ceil(n_panels / ncols)
 
     # Extents first, to give the panels a height that suits the data.
-    extents = []
+    extents, swept = [], []
     for rows, light, bold in panels:
         ext = Extent()
+        swept.append(swept_outlines(result, rows))
+        for outline in (*swept[-1]["vehicle"], *swept[-1]["trailer"]):
+            ext.add(outline)
         ext.add(parking_space(result.vehicle, result.goal))
         ext.add(np.column_stack([tr["x_trailer"][rows], tr["y_trailer"][rows]]))
         ext.add(np.column_stack([tr["x_rear"][rows], tr["y_rear"][rows]]))
@@ -123,10 +141,13 @@ def motion_figure(result: ManeuverResult, snapshot_every: float = 2.0) -> Figure
     )
     flat = axes.ravel()
     letters = "abcdefghij"
+    n_plans = 0
     for p, ((rows, light, bold), ext) in enumerate(zip(panels, extents, strict=True)):
         ax = flat[p]
         draw_scene(ax, scene, ext)
         draw_goal(ax, result)
+        draw_swept(ax, swept[p])
+        n_plans = draw_plans(ax, result)
         for i in range(n_stages) if p == n_stages else [p]:
             draw_paths(ax, result, result.stage_rows(i), stage_color(i))
         for row in light:
@@ -182,7 +203,17 @@ def motion_figure(result: ManeuverResult, snapshot_every: float = 2.0) -> Figure
             label=f"bodies every {snapshot_every:g} s (at most 8 per stage)",
         ),
         Patch(fc=SPACE_FACE, ec=SPACE_EDGE, ls="--", label="parking space, goal heading →"),
+        Patch(
+            fill=False,
+            ec=TRAILER_EDGE,
+            lw=0.5,
+            alpha=0.4,
+            label=f"swept bodies of the real car, every {SWEPT_EVERY_M:g} m of travel",
+        ),
     ]
+    if n_plans:
+        label = "planned path (trailer axle)" + (f", {n_plans} plans with replans" if n_plans > 1 else "")
+        handles.append(Line2D([], [], **PLAN_STYLE, label=label))
     if scene.obstacles:
         handles.append(Patch(fc=OBSTACLE_FACE, ec=OBSTACLE_EDGE, label="obstacle"))
     if scene.area is not None:

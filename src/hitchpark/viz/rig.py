@@ -6,7 +6,7 @@ only turns them into matplotlib artists. Matplotlib is imported inside the funct
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import shapely
@@ -35,10 +35,29 @@ if TYPE_CHECKING:
 
     from ..maneuver.result import ManeuverResult
 
-__all__ = ["draw_contact", "draw_goal", "draw_paths", "draw_rig", "draw_scene", "near_scene", "rig_outlines"]
+__all__ = [
+    "draw_contact",
+    "draw_goal",
+    "draw_paths",
+    "draw_plans",
+    "draw_rig",
+    "draw_scene",
+    "draw_swept",
+    "near_scene",
+    "rig_outlines",
+    "swept_outlines",
+    "swept_rows",
+]
 
 #: How far past the drawn motion the parts of obstacles and of the area boundary widen a panel [m].
 SCENE_REACH = 3.0
+
+#: Travel between two outlines of the swept bodies [m] (of whichever axle, the car's rear or the trailer's, moved more).
+SWEPT_EVERY_M = 1.0
+
+#: Style of the planned paths: thin, dashed, dark.
+PLAN_COLOR = "#303030"
+PLAN_STYLE: dict[str, Any] = {"color": PLAN_COLOR, "lw": 0.9, "ls": (0, (5, 3)), "alpha": 0.8}
 
 
 def rig_outlines(result: ManeuverResult, row: int) -> tuple[dict[str, np.ndarray], np.ndarray]:
@@ -205,3 +224,65 @@ def draw_contact(ax: Axes, contact: Contact, clearance: float) -> None:
         zorder=7.1,
         annotation_clip=True,
     )
+
+
+def swept_rows(result: ManeuverResult, rows: slice, every_m: float = SWEPT_EVERY_M) -> list[int]:
+    """Rows of ``rows`` about ``every_m`` [m] of travel apart, the first and last included.
+
+    Travel is, step by step, the larger of the moves of the car's rear axle and of the trailer axle, so a
+    car turning while the trailer stands still is drawn too.
+    """
+    tr = result.trajectory
+    index = np.arange(len(tr))[rows]
+    if index.size == 0:
+        return []
+    steps = np.maximum(
+        np.hypot(np.diff(tr["x_trailer"][index]), np.diff(tr["y_trailer"][index])),
+        np.hypot(np.diff(tr["x_rear"][index]), np.diff(tr["y_rear"][index])),
+    )
+    travel = np.concatenate([[0.0], np.cumsum(steps)])
+    marks = np.floor(travel / every_m)
+    chosen = [0, *np.flatnonzero(np.diff(marks) > 0) + 1, index.size - 1]
+    return sorted({int(index[i]) for i in chosen})
+
+
+def swept_outlines(result: ManeuverResult, rows: slice, every_m: float = SWEPT_EVERY_M) -> dict[str, list[np.ndarray]]:
+    """Outlines of the real car's bodies (``"vehicle"``, ``"trailer"``) at :func:`swept_rows`: what the
+    clearance is judged on (the plant's lengths)."""
+    tr, vehicle = result.trajectory, result.plant_vehicle
+    out: dict[str, list[np.ndarray]] = {"vehicle": [], "trailer": []}
+    for row in swept_rows(result, rows, every_m):
+        bodies = body_outlines(
+            vehicle, tr["x_trailer"][row], tr["y_trailer"][row], tr["yaw_trailer"][row], tr["hitch"][row]
+        )
+        out["vehicle"].append(bodies["vehicle"])
+        out["trailer"].append(bodies["trailer"])
+    return out
+
+
+def draw_swept(ax: Axes, outlines: dict[str, list[np.ndarray]], zorder: float = 2.0) -> None:
+    """The swept bodies: each outline of :func:`swept_outlines` thin and faint, in its body's colour."""
+    from matplotlib.collections import PolyCollection
+
+    for key, edge in (("vehicle", VEHICLE_EDGE), ("trailer", TRAILER_EDGE)):
+        if outlines[key]:
+            lines = PolyCollection(outlines[key], closed=True, facecolors="none", edgecolors=edge, linewidths=0.5)
+            lines.set_alpha(0.2)
+            lines.set_zorder(zorder)
+            ax.add_collection(lines, autolim=False)
+
+
+def draw_plans(ax: Axes, result: ManeuverResult, zorder: float = 4.5) -> int:
+    """The planned paths of the trailer axle (each plan and replan with a path), thin and dashed; how many.
+
+    Added without widening the axes' data limits: a plan runs where the motion runs, or it was left.
+    """
+    from matplotlib.lines import Line2D
+
+    drawn = 0
+    for plan in result.plans:
+        if len(plan.path.get("x_trailer", ())) < 2:
+            continue
+        ax.add_artist(Line2D(plan.path["x_trailer"], plan.path["y_trailer"], zorder=zorder, **PLAN_STYLE))
+        drawn += 1
+    return drawn
