@@ -144,7 +144,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--region",
         metavar="x=LO:HI,y=LO:HI,yaw=LO:HI,hitch=LO:HI",
         help="ranges of the trailer-axle x, y [m], yaw [deg] and hitch angle [deg]; a key left out keeps its "
-        "default (x=4:16,y=-8:8,yaw=-90:90,hitch=-30:30)",
+        "default (x=4:16,y=-8:8,yaw=-90:90,hitch=-30:30); not with --scenario",
     )
     p.add_argument(
         "--settings", type=Path, metavar="FILE.toml", help="maneuver settings: [nmpc], [forward], [success] tables"
