@@ -12,12 +12,13 @@ import numpy as np
 from ...checks import InputError, check_instance
 from ...model.collision import swept_clearance
 from ...model.scene import Scene
-from ...model.state import Pose, State, check_goal, check_state, to_goal_frame, wrap_angle
+from ...model.state import Pose, State, check_goal, check_state, to_goal_frame
 from ...model.vehicle import VehicleTrailer, check_vehicle
 from ..pure_pursuit import forward_steer_limit
+from .endgame import EndGame
 from .grid import Discs, DistanceGrid, HolonomicHeuristic
 from .heuristic import TrailerTable, trailer_table
-from .motion import GoalShot, PrimitiveBatch
+from .motion import PrimitiveBatch
 from .settings import Plan, PlannerSettings
 
 __all__ = ["plan"]
@@ -25,8 +26,8 @@ __all__ = ["plan"]
 #: Cell of the holonomic heuristic's grid [m].
 HEURISTIC_CELL_M = 0.25
 
-#: Look-aheads of the end-game's reverse runs onto the goal line [m].
-SHOT_LOOKAHEADS = (2.5, 4.0, 6.0)
+#: Dubins shots are tried from the start and from every this many expanded nodes.
+DUBINS_EVERY = 10
 
 #: How many times a search that exhausts its grid is repeated on a grid twice as fine.
 REFINEMENTS = 2
@@ -112,7 +113,7 @@ class _Search:
         self.straight_back = s.steer_samples + int(np.argmin(np.abs(reverse)))  # the reverse command nearest 0
         self.batch = PrimitiveBatch(vehicle, s.primitive_length_m, s.samples, 2 * s.steer_samples)
         self.discs = Discs(vehicle)
-        self.shot = GoalShot(vehicle, s.sample_step_m, SHOT_LOOKAHEADS) if s.shot_length_m else None
+        self.endgame = EndGame(vehicle, goal, s) if s.shot_length_m else None
         self.bounds = self._bounds()
         self.grid = DistanceGrid(scene, self.bounds, s.collision_cell_m)
         self.need = self.discs.radius + s.min_clearance_m
@@ -229,7 +230,16 @@ class _Search:
             nodes = [_Node(self.start, 0.0, -1, 0.0, -1, np.zeros((0, 4)), np.zeros(0))]
             return self._done("found", "the start is within the goal tolerance", nodes, 0)
         nodes = [_Node(self.start, 0.0, 0, 0.0, -1, np.zeros((0, 4)), np.zeros(0))]
-        heap: list[tuple[float, int]] = [(float(self._heuristic(self.start[None, :])[0]), 0)]
+        h_start = float(self._heuristic(self.start[None, :])[0])
+        if self.endgame is not None:
+            # A single reverse run from the start is taken when it costs no more than the heuristic's
+            # estimate of any path with a change of direction.
+            distance = max(h_start / s.heuristic_weight, math.hypot(*self.endgame.in_goal_frame(self.start)[:2]))
+            found = self._land(nodes, 0, dubins=True, max_length=distance + s.weight_switch)
+            if found is not None:
+                return self._done("found", "within the goal tolerance by a single reverse run from the start",
+                                  nodes, found)  # fmt: skip
+        heap: list[tuple[float, int]] = [(h_start, 0)]
         best_g: dict[tuple[int, int, int, int], float] = {self._key(self.start): 0.0}
         closed: set[tuple[int, int, int, int]] = set()
         while heap:
@@ -242,8 +252,9 @@ class _Search:
                 continue
             closed.add(key)
             self.expanded += 1
-            if self.shot is not None:
-                found = self._try_shot(nodes, index)
+            if self.endgame is not None:
+                found = self._land(nodes, index, dubins=self.expanded % DUBINS_EVERY == 0,
+                                   max_length=s.shot_length_m)
                 if found is not None:
                     return self._done("found", "within the goal tolerance by a reverse run onto the goal line",
                                       nodes, found)  # fmt: skip
@@ -301,55 +312,29 @@ class _Search:
             f"the search space is exhausted at a {s.xy_resolution_m:g} m grid: no path reaches the goal tolerance",
         )
 
-    def _try_shot(self, nodes: list[_Node], index: int) -> int | None:
-        """End-game from node ``index``: reverse runs onto the goal line; the new goal node's index if one lands."""
-        assert self.shot is not None
-        node, s, goal = nodes[index], self.settings, self.goal
-        gx, gy, gyaw = (float(v) for v in to_goal_frame(goal, node.state[0], node.state[1], node.state[2]))
-        if gx <= 0.0 or abs(gyaw) > s.shot_max_heading or math.hypot(gx, gy) > s.shot_length_m:
-            return None
+    def _land(self, nodes: list[_Node], index: int, dubins: bool, max_length: float) -> int | None:
+        """End-games from node ``index`` (:mod:`.endgame`); the new goal node's index if one lands clear.
+
+        Runs longer than ``max_length`` (trailer axle) are not taken.
+        """
+        assert self.endgame is not None
+        node = nodes[index]
         steer = node.steer
         if node.direction != -1:  # at standstill: the steer the run asks first (virtual steer 0 as a stand-in)
             steer = float(self._initial_steer(float(node.state[3]))[self.straight_back])
-        runs = self.shot.run(
-            np.array([gx, gy, gyaw, node.state[3], steer]), s.virtual_limit, s.shot_length_m, self._shots_ended
-        )
-        c, sn = math.cos(goal.yaw), math.sin(goal.yaw)
-        for run in runs:
-            arrived = self._at_goal_frame(run[1:])
-            if not arrived.any():
+        landings = self.endgame.line_shots(node.state, steer)
+        if dubins:
+            landings += self.endgame.dubins_shots(node.state, steer, max_length)
+        for world, steers in sorted(landings, key=lambda landing: len(landing[0])):
+            xy = np.vstack([node.state[None, :2], world[:, :2]])
+            if np.hypot(*np.diff(xy, axis=0).T).sum() > max_length:
+                break
+            if not self._clear(np.vstack([node.state[None, :], world])[None])[0]:
                 continue
-            k = int(np.argmax(arrived)) + 1
-            part = run[: k + 1]
-            if np.any(np.abs(part[1:, 3]) > self.hitch_limit) or not np.all(np.isfinite(part)):
-                continue
-            world = part[:, :4].copy()
-            world[:, 0] = goal.x + c * part[:, 0] - sn * part[:, 1]
-            world[:, 1] = goal.y + sn * part[:, 0] + c * part[:, 1]
-            world[:, 2] = part[:, 2] + goal.yaw
-            if not self._clear(world[None])[0]:
-                continue
-            nodes.append(_Node(world[-1], float(part[-1, 4]), -1, 0.0, index, world[1:], part[1:, 4]))
+            nodes.append(_Node(world[-1], float(steers[-1]), -1, 0.0, index, world, steers))
             if self._confirmed(nodes, len(nodes) - 1):
                 return len(nodes) - 1
         return None
-
-    def _shots_ended(self, runs: np.ndarray) -> bool:
-        """No run can still arrive: each has arrived, passed the goal, met the hitch limit or gone non-finite."""
-        last = runs[:, -1, :]
-        over = (last[:, 0] < -self.settings.goal_tolerance_m) | (np.abs(runs[:, :, 3]) > self.hitch_limit).any(axis=1)
-        over |= ~np.all(np.isfinite(last), axis=1) | self._at_goal_frame(runs[:, 1:].reshape(-1, 5)).reshape(
-            len(runs), -1
-        ).any(axis=1)
-        return bool(over.all())
-
-    def _at_goal_frame(self, states: np.ndarray) -> np.ndarray:
-        s = self.settings
-        return (
-            (np.hypot(states[:, 0], states[:, 1]) <= s.goal_tolerance_m)
-            & (np.abs(wrap_angle(states[:, 2])) <= s.goal_tolerance_yaw)
-            & (np.abs(states[:, 3]) <= s.goal_tolerance_hitch)
-        )
 
     def _confirmed(self, nodes: list[_Node], last: int) -> bool:
         """The exact swept clearance of the path ending at node ``last`` keeps ``min_clearance_m``."""
