@@ -109,6 +109,16 @@ class EndGame:
         runs = self.pursuit.run(start, padded, lookaheads, s.virtual_limit, self._dubins_ended)
         return self._landings(runs)
 
+    def dubins_estimate(self, state: np.ndarray) -> float:
+        """Length [m] of the shortest Dubins reference from ``state`` with the longest approach (trailer axle).
+
+        The longest approach and the middle radius: a reference a pursuit follows into the tolerance.
+        """
+        gx, gy, gyaw = self.in_goal_frame(state)
+        approach, radius = DUBINS_APPROACHES[-1], DUBINS_RADII[len(DUBINS_RADII) // 2] * self.least_radius
+        words = dubins_words((gx, gy, gyaw + math.pi), (approach, 0.0, math.pi), radius)
+        return sum(words[0][1]) + approach if words else math.inf
+
     # --- goal-frame tests -----------------------------------------------------------------------------
 
     def at_goal(self, states: np.ndarray) -> np.ndarray:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import heapq
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -19,6 +19,8 @@ from .endgame import EndGame
 from .grid import Discs, DistanceGrid, HolonomicHeuristic
 from .heuristic import TrailerTable, trailer_table
 from .motion import PrimitiveBatch
+from .nodes import Node
+from .opening import OPENING_FORWARD_M, opening
 from .settings import Plan, PlannerSettings
 
 __all__ = ["plan"]
@@ -34,17 +36,6 @@ REFINEMENTS = 2
 
 #: Cap on the nodes of one search (memory bound; the time limit usually ends a search first).
 MAX_NODES = 2_000_000
-
-
-@dataclass
-class _Node:
-    state: np.ndarray  # (4,) end configuration
-    steer: float  # front steer at the end
-    direction: int  # +1 forward, -1 reverse, 0 for the start
-    g: float
-    parent: int
-    samples: np.ndarray  # (k, 4) configurations after the parent's end, up to and including this one
-    steers: np.ndarray  # (k,) front steer at those samples
 
 
 def plan(
@@ -112,6 +103,9 @@ class _Search:
         self.directions = np.concatenate([np.ones(s.steer_samples), -np.ones(s.steer_samples)])
         self.straight_back = s.steer_samples + int(np.argmin(np.abs(reverse)))  # the reverse command nearest 0
         self.batch = PrimitiveBatch(vehicle, s.primitive_length_m, s.samples, 2 * s.steer_samples)
+        self.steer_samples_forward = forward
+        opening_samples = round(OPENING_FORWARD_M / s.sample_step_m)
+        self.opening_batch = PrimitiveBatch(vehicle, OPENING_FORWARD_M, opening_samples, s.steer_samples)
         self.discs = Discs(vehicle)
         self.endgame = EndGame(vehicle, goal, s) if s.shot_length_m else None
         self.bounds = self._bounds()
@@ -195,7 +189,7 @@ class _Search:
 
     # --- search ------------------------------------------------------------------------------------------
 
-    def _done(self, status: str, detail: str, nodes: list[_Node] | None = None, last: int = -1) -> Plan:
+    def _done(self, status: str, detail: str, nodes: list[Node] | None = None, last: int = -1) -> Plan:
         path: dict[str, np.ndarray] = {}
         switches, length = 0, 0.0
         if nodes is not None:
@@ -227,24 +221,45 @@ class _Search:
             if not np.isfinite(self.holonomic(self.start[:1], self.start[1:2])[0]):
                 return self._done("no_path", "the goal cannot be reached from the start around the obstacles")
         if self._at_goal(self.start)[()]:
-            nodes = [_Node(self.start, 0.0, -1, 0.0, -1, np.zeros((0, 4)), np.zeros(0))]
+            nodes = [Node(self.start, 0.0, -1, 0.0, -1, np.zeros((0, 4)), np.zeros(0))]
             return self._done("found", "the start is within the goal tolerance", nodes, 0)
-        nodes = [_Node(self.start, 0.0, 0, 0.0, -1, np.zeros((0, 4)), np.zeros(0))]
+        nodes = [Node(self.start, 0.0, 0, 0.0, -1, np.zeros((0, 4)), np.zeros(0))]
         h_start = float(self._heuristic(self.start[None, :])[0])
+        if time.perf_counter() - self.began > s.time_limit_s:
+            return self._done("timeout", f"no path within the time limit of {s.time_limit_s:g} s")
         if self.endgame is not None:
-            # A single reverse run from the start is taken when it costs no more than the heuristic's
-            # estimate of any path with a change of direction.
-            distance = max(h_start / s.heuristic_weight, math.hypot(*self.endgame.in_goal_frame(self.start)[:2]))
-            found = self._land(nodes, 0, dubins=True, max_length=distance + s.weight_switch)
+            found = opening(self, nodes, h_start)
             if found is not None:
-                return self._done("found", "within the goal tolerance by a single reverse run from the start",
-                                  nodes, found)  # fmt: skip
+                return self._done("found", "within the goal tolerance (opening)", nodes, found)
+        status, found = self._astar(nodes, h_start, reverse_only=False, budget=MAX_NODES)
+        if status == "found":
+            return self._done("found", "within the goal tolerance", nodes, found)
+        if status == "timeout":
+            return self._done("timeout", f"no path within the time limit of {s.time_limit_s:g} s")
+        if status == "budget":
+            return self._done("timeout", f"the search passed {MAX_NODES} nodes")
+        self.exhausted = True
+        return self._done(
+            "no_path",
+            f"the search space is exhausted at a {s.xy_resolution_m:g} m grid: no path reaches the goal tolerance",
+        )
+
+    def _astar(self, nodes: list[Node], h_start: float, reverse_only: bool, budget: int) -> tuple[str, int]:
+        """Hybrid A* from node 0: ("found", goal node), ("timeout" | "budget" | "exhausted", -1).
+
+        ``reverse_only``: reverse primitives only (the single reverse runs of the opening); ``budget``: the
+        most nodes expanded.
+        """
+        s = self.settings
         heap: list[tuple[float, int]] = [(h_start, 0)]
         best_g: dict[tuple[int, int, int, int], float] = {self._key(self.start): 0.0}
         closed: set[tuple[int, int, int, int]] = set()
+        expanded = 0
         while heap:
             if time.perf_counter() - self.began > s.time_limit_s:
-                return self._done("timeout", f"no path within the time limit of {s.time_limit_s:g} s")
+                return "timeout", -1
+            if expanded >= budget or len(nodes) > MAX_NODES:
+                return "budget", -1
             _, index = heapq.heappop(heap)
             node = nodes[index]
             key = self._key(node.state)
@@ -252,12 +267,11 @@ class _Search:
                 continue
             closed.add(key)
             self.expanded += 1
-            if self.endgame is not None:
-                found = self._land(nodes, index, dubins=self.expanded % DUBINS_EVERY == 0,
-                                   max_length=s.shot_length_m)
+            expanded += 1
+            if self.endgame is not None and index > 0:
+                found = self._land(nodes, index, dubins=expanded % DUBINS_EVERY == 0, max_length=s.shot_length_m)
                 if found is not None:
-                    return self._done("found", "within the goal tolerance by a reverse run onto the goal line",
-                                      nodes, found)  # fmt: skip
+                    return "found", found
             # Forward primitives hold a front steer, reverse ones a virtual steer (Eq. 45). The steer carries
             # on within a direction; at a change of direction (at standstill) it is set to what the command
             # asks at once.
@@ -268,6 +282,8 @@ class _Search:
             ok = np.all(np.abs(motions[:, 1:, 3]) <= self.hitch_limit, axis=1) & np.all(
                 np.isfinite(motions), axis=(1, 2)
             )
+            if reverse_only:
+                ok &= dirs < 0
             ok &= self._clear(motions)
             if not ok.any():
                 continue
@@ -279,11 +295,11 @@ class _Search:
             for hit in np.flatnonzero(arrived.any(axis=1)):
                 k = int(np.argmax(arrived[hit])) + 1
                 c = candidates[hit]
-                goal_node = _Node(motions[hit, k], float(steers[hit, k]), dirs[c], 0.0, index,
+                goal_node = Node(motions[hit, k], float(steers[hit, k]), dirs[c], 0.0, index,
                                   motions[hit, 1 : k + 1], steers[hit, 1 : k + 1])  # fmt: skip
                 nodes.append(goal_node)
                 if self._confirmed(nodes, len(nodes) - 1):
-                    return self._done("found", "within the goal tolerance", nodes, len(nodes) - 1)
+                    return "found", len(nodes) - 1
             ends = motions[:, -1, :]
             h = self._heuristic(ends)
             child_dirs = dirs[candidates]
@@ -302,17 +318,15 @@ class _Search:
                     continue
                 best_g[child_key] = g
                 d = int(child_dirs[row])
-                nodes.append(_Node(ends[row], float(steers[row, -1]), d, g, index, motions[row, 1:], steers[row, 1:]))
+                nodes.append(Node(ends[row], float(steers[row, -1]), d, g, index, motions[row, 1:], steers[row, 1:]))
                 heapq.heappush(heap, (g + float(h[row]), len(nodes) - 1))
-            if len(nodes) > MAX_NODES:
-                return self._done("timeout", f"the search passed {MAX_NODES} nodes")
-        self.exhausted = True
-        return self._done(
-            "no_path",
-            f"the search space is exhausted at a {s.xy_resolution_m:g} m grid: no path reaches the goal tolerance",
-        )
+        return "exhausted", -1
 
-    def _land(self, nodes: list[_Node], index: int, dubins: bool, max_length: float) -> int | None:
+    def _length(self, nodes: list[Node], last: int) -> float:
+        """Trailer-axle length [m] of the path ending at node ``last``."""
+        return float(self._path(nodes, last)["s"][-1])
+
+    def _land(self, nodes: list[Node], index: int, dubins: bool, max_length: float) -> int | None:
         """End-games from node ``index`` (:mod:`.endgame`); the new goal node's index if one lands clear.
 
         Runs longer than ``max_length`` (trailer axle) are not taken.
@@ -331,12 +345,12 @@ class _Search:
                 break
             if not self._clear(np.vstack([node.state[None, :], world])[None])[0]:
                 continue
-            nodes.append(_Node(world[-1], float(steers[-1]), -1, 0.0, index, world, steers))
+            nodes.append(Node(world[-1], float(steers[-1]), -1, 0.0, index, world, steers))
             if self._confirmed(nodes, len(nodes) - 1):
                 return len(nodes) - 1
         return None
 
-    def _confirmed(self, nodes: list[_Node], last: int) -> bool:
+    def _confirmed(self, nodes: list[Node], last: int) -> bool:
         """The exact swept clearance of the path ending at node ``last`` keeps ``min_clearance_m``."""
         if self.scene.is_empty:
             return True
@@ -345,7 +359,7 @@ class _Search:
         bound, _ = swept_clearance(self.vehicle, self.scene, configs)
         return bound >= self.settings.min_clearance_m
 
-    def _path(self, nodes: list[_Node], last: int) -> dict[str, np.ndarray]:
+    def _path(self, nodes: list[Node], last: int) -> dict[str, np.ndarray]:
         chain = []
         i = last
         while i >= 0:
