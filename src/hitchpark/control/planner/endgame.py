@@ -39,13 +39,13 @@ DUBINS_RADII = (1.0, 1.15, 1.4)
 DUBINS_APPROACHES = (1.5, 4.0)
 
 #: Words tried per radius and approach (the shortest ones).
-DUBINS_WORDS = 2
+DUBINS_WORDS = 3
 
 #: Look-ahead of the pursuit along a Dubins reference [m].
 DUBINS_LOOKAHEAD_M = 2.0
 
 #: A Dubins run farther than this from its reference is given up [m].
-DUBINS_MAX_DEVIATION_M = 1.2
+DUBINS_MAX_DEVIATION_M = 2.0
 
 #: Landing: world-frame samples (k, 4) after the run's start and the front steer at them (k,).
 Landing = tuple[np.ndarray, np.ndarray]
