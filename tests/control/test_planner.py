@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from hitchpark.checks import InputError
 from hitchpark.control.planner import PATH_COLUMNS, Plan, PlannerSettings, plan
+from hitchpark.control.planner.dubins import dubins_words, sample_word
 from hitchpark.control.planner.motion import PrimitiveBatch
 from hitchpark.control.pure_pursuit import forward_steer_limit
 from hitchpark.model import Pose, VehicleTrailer
@@ -201,3 +203,40 @@ def test_bad_arguments_are_refused():
         plan(VEHICLE, State(10.0, 0.0, 0.0, 0.0), Pose(), Scene(), {"time_limit_s": 1.0})  # type: ignore[arg-type]
     with pytest.raises(InputError):
         plan(VEHICLE, State(10.0, 0.0, 0.0, 0.0), Pose(), "scene", SETTINGS)  # type: ignore[arg-type]
+
+
+def test_a_start_facing_away_from_the_goal_is_one_bending_reverse_run():
+    """The opening's Dubins shot: a single reverse run that bends, every sample within the limits."""
+    result = plan(VEHICLE, State(12.0, 4.0, math.radians(30.0), math.radians(10.0)), Pose(), Scene(), SETTINGS)
+    check_path(result, VEHICLE, SETTINGS, Pose())
+    assert result.direction_switches == 0
+    assert np.ptp(result.path["yaw_trailer"]) > math.radians(20.0)  # it bends
+
+
+def test_a_start_beside_the_goal_pulls_forward_then_reverses_once():
+    """Too close to the goal line for a short single reverse: forward, then one reverse run (the opening)."""
+    settings = replace(SETTINGS, weight_switch=5.0)
+    result = plan(VEHICLE, State(7.2, 6.1, math.radians(2.0), math.radians(20.0)), Pose(), Scene(), settings)
+    check_path(result, VEHICLE, settings, Pose())
+    assert result.direction_switches == 1
+    assert result.path["direction"][0] == 1.0 and result.path["direction"][-1] == -1.0
+
+
+def test_without_end_games_the_search_alone_finds_a_path():
+    settings = replace(SETTINGS, shot_length_m=0.0)
+    result = plan(VEHICLE, State(10.0, 1.0, 0.0, 0.0), Pose(), Scene(), settings)
+    check_path(result, VEHICLE, settings, Pose())
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_dubins_words_end_at_their_goal(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(200):
+        start, end, radius = tuple(rng.uniform(-10, 10, 3)), tuple(rng.uniform(-10, 10, 3)), rng.uniform(1, 6)
+        words = dubins_words(start, end, radius)
+        assert words, "some Dubins word always exists"
+        assert [sum(w[1]) for w in words] == sorted(sum(w[1]) for w in words)
+        for word, lengths in words:
+            last = sample_word(start, word, lengths, radius, 0.1)[-1]
+            assert last[:2] == pytest.approx(end[:2], abs=1e-6)
+            assert math.remainder(last[2] - end[2], 2 * math.pi) == pytest.approx(0.0, abs=1e-6)

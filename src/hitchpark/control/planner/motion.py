@@ -61,32 +61,53 @@ def _rk4_columns(f: Callable[[ca.SX], ca.SX], x0: ca.SX, h: float, samples: int)
     return ca.horzcat(*columns)
 
 
+def _pursuit_rhs(
+    vehicle: VehicleTrailer, x: ca.SX, tx: ca.SX | float, ty: ca.SX | float, limit: ca.SX, tau: float
+) -> ca.SX:
+    """d/dt of (x, y, yaw, hitch, steer) in reverse, the trailer axle pursuing the point (``tx``, ``ty``).
+
+    Pure pursuit of the trailer axle driven backwards: the virtual steer with the curvature
+    2 sin(alpha) / l_d, alpha the bearing of the point from the backward heading and l_d its distance,
+    within +-``limit``; the trailer turns by Eq. (42), the front steer follows from Eq. (45), rate-limited
+    as in the primitives.
+    """
+    dx, dy = tx - x[0], ty - x[1]
+    distance = ca.fmax(ca.sqrt(dx**2 + dy**2), 1e-6)
+    bearing = ca.atan2(dy, dx) - (x[2] + np.pi)
+    alpha = ca.atan2(ca.sin(bearing), ca.cos(bearing))
+    virtual = ca.atan(-2.0 * vehicle.trailer_length * ca.sin(alpha) / distance)
+    virtual = ca.fmin(ca.fmax(virtual, -limit), limit)
+    return _actuated_rhs(vehicle, x, commanded_steer(vehicle, x[3], virtual, -1.0), -1.0, tau)
+
+
 @functools.lru_cache(maxsize=16)
 def _shot_function(vehicle: VehicleTrailer, step: float, runs: int, chunk: int) -> ca.Function:
     """``F(x0 (5, runs), lookaheads (1, runs * chunk), limits) -> (5, runs * chunk)``: reverse runs onto the goal line.
 
-    In the goal frame. Pure pursuit of the trailer axle, driven backwards, towards the point of the line
-    y = 0 one look-ahead behind it (the foot of the perpendicular when the line is farther): the virtual
-    steer with the curvature 2 sin(alpha) / l_d, alpha the bearing of that point from the backward
-    heading, within +-``virtual_limit``; the front steer from it by Eq. (45), rate-limited as in the
-    primitives. One RK4 step as a function, mapped over the runs and accumulated over ``chunk`` samples
-    (CasADi ``mapaccum``): cheap to build, and the end-game can stop after any chunk.
+    In the goal frame. The trailer axle pursues the point of the line y = 0 one look-ahead behind it (the
+    foot of the perpendicular when the line is farther). One RK4 step as a function, mapped over the runs
+    and accumulated over ``chunk`` samples (CasADi ``mapaccum``): cheap to build, and the end-game can
+    stop after any chunk.
     """
     x0, lookahead, limit = ca.SX.sym("x0", 5), ca.SX.sym("lookahead"), ca.SX.sym("limit")
-    L_T = vehicle.trailer_length
 
     def rhs(x: ca.SX) -> ca.SX:
-        gy, yaw = x[1], x[2]
-        dx = ca.sqrt(ca.fmax(lookahead**2 - gy**2, 0.0))
-        distance = ca.fmax(ca.sqrt(dx**2 + gy**2), 1e-6)
-        bearing = ca.atan2(-gy, -dx) - (yaw + np.pi)
-        alpha = ca.atan2(ca.sin(bearing), ca.cos(bearing))
-        virtual = ca.atan(-2.0 * L_T * ca.sin(alpha) / distance)
-        virtual = ca.fmin(ca.fmax(virtual, -limit), limit)
-        return _actuated_rhs(vehicle, x, commanded_steer(vehicle, x[3], virtual, -1.0), -1.0, step)
+        ahead = ca.sqrt(ca.fmax(lookahead**2 - x[1] ** 2, 0.0))
+        return _pursuit_rhs(vehicle, x, x[0] - ahead, 0.0, limit, step)
 
     one = ca.Function("shot_step", [x0, lookahead, limit], [_rk4_columns(rhs, x0, step, 1)[:, 1]])
     return one.map(runs).mapaccum("goal_shot", chunk)
+
+
+@functools.lru_cache(maxsize=16)
+def _pursuit_function(vehicle: VehicleTrailer, step: float, runs: int) -> ca.Function:
+    """``F(x (5, runs), targets (2, runs), limit) -> (5, runs)``: one RK4 step of each run towards its point."""
+    x0, target, limit = ca.SX.sym("x0", 5), ca.SX.sym("target", 2), ca.SX.sym("limit")
+
+    def rhs(x: ca.SX) -> ca.SX:
+        return _pursuit_rhs(vehicle, x, target[0], target[1], limit, step)
+
+    return ca.Function("pursuit_step", [x0, target, limit], [_rk4_columns(rhs, x0, step, 1)[:, 1]]).map(runs)
 
 
 @functools.lru_cache(maxsize=16)
@@ -177,3 +198,59 @@ class GoalShot:
             if ended(runs):
                 return runs
         return np.concatenate(parts, axis=1)
+
+
+class PathPursuit:
+    """Reverse runs of the trailer axle along reference paths by pure pursuit (the analytic end-game).
+
+    Each run pursues, one look-ahead along its reference, the point past the reference point nearest the
+    trailer axle (searched a little ahead of the last one, so a run never jumps back along its path).
+    """
+
+    #: How far ahead along the reference [samples] the nearest point is searched at each step.
+    WINDOW = 12
+
+    def __init__(self, vehicle: VehicleTrailer, step: float, runs: int):
+        vehicle.require_hitch_offset()
+        self.step = step
+        self.runs = runs
+        self._function = _pursuit_function(vehicle, step, runs)
+
+    def run(
+        self,
+        start: np.ndarray,
+        references: np.ndarray,
+        lookaheads: np.ndarray,
+        limit: float,
+        ended: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    ) -> np.ndarray:
+        """(x, y, yaw, hitch, steer) of each run from ``start`` (5,): shape (runs, samples + 1, 5).
+
+        ``references`` (runs, m, 2): points ``step`` apart, the path of each run (padded with its last
+        point); ``lookaheads`` (runs,) [m]. A run is integrated until ``ended(states, deviation)`` says of
+        its current state and its distance from the reference that it cannot still arrive (or has); all
+        stop when every run has, or at the end of the references.
+        """
+        runs, m = references.shape[0], references.shape[1]
+        ahead = np.maximum(1, np.round(np.asarray(lookaheads) / self.step)).astype(np.int64)
+        rows = np.arange(runs)
+        x = np.repeat(np.asarray(start, dtype=float)[:, None], runs, axis=1)
+        nearest = np.zeros(runs, dtype=np.int64)
+        window = np.arange(self.WINDOW)
+        limits = np.full((1, runs), limit)
+        states = [x.T.copy()]
+        done = np.zeros(runs, dtype=bool)
+        for _ in range(m + self.WINDOW):
+            candidates = np.minimum(nearest[:, None] + window[None, :], m - 1)
+            gap = references[rows[:, None], candidates] - x[:2].T[:, None, :]
+            distance = np.hypot(gap[..., 0], gap[..., 1])
+            best = np.argmin(distance, axis=1)
+            nearest = candidates[rows, best]
+            done |= ended(x.T, distance[rows, best])
+            if done.all():
+                break
+            targets = references[rows, np.minimum(nearest + ahead, m - 1)].T
+            x = np.asarray(self._function(x, targets, limits))
+            x[:, done] = states[-1].T[:, done]  # a run that ended stays where it ended
+            states.append(x.T.copy())
+        return np.stack(states, axis=1)

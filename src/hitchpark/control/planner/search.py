@@ -5,19 +5,22 @@ from __future__ import annotations
 import heapq
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
 from ...checks import InputError, check_instance
 from ...model.collision import swept_clearance
 from ...model.scene import Scene
-from ...model.state import Pose, State, check_goal, check_state, to_goal_frame, wrap_angle
+from ...model.state import Pose, State, check_goal, check_state, to_goal_frame
 from ...model.vehicle import VehicleTrailer, check_vehicle
 from ..pure_pursuit import forward_steer_limit
+from .endgame import EndGame
 from .grid import Discs, DistanceGrid, HolonomicHeuristic
 from .heuristic import TrailerTable, trailer_table
-from .motion import GoalShot, PrimitiveBatch
+from .motion import PrimitiveBatch
+from .nodes import Node
+from .opening import OPENING_FORWARD_M, opening
 from .settings import Plan, PlannerSettings
 
 __all__ = ["plan"]
@@ -25,25 +28,14 @@ __all__ = ["plan"]
 #: Cell of the holonomic heuristic's grid [m].
 HEURISTIC_CELL_M = 0.25
 
-#: Look-aheads of the end-game's reverse runs onto the goal line [m].
-SHOT_LOOKAHEADS = (2.5, 4.0, 6.0)
+#: Dubins shots are tried from the start and from every this many expanded nodes.
+DUBINS_EVERY = 10
 
 #: How many times a search that exhausts its grid is repeated on a grid twice as fine.
 REFINEMENTS = 2
 
 #: Cap on the nodes of one search (memory bound; the time limit usually ends a search first).
 MAX_NODES = 2_000_000
-
-
-@dataclass
-class _Node:
-    state: np.ndarray  # (4,) end configuration
-    steer: float  # front steer at the end
-    direction: int  # +1 forward, -1 reverse, 0 for the start
-    g: float
-    parent: int
-    samples: np.ndarray  # (k, 4) configurations after the parent's end, up to and including this one
-    steers: np.ndarray  # (k,) front steer at those samples
 
 
 def plan(
@@ -111,8 +103,11 @@ class _Search:
         self.directions = np.concatenate([np.ones(s.steer_samples), -np.ones(s.steer_samples)])
         self.straight_back = s.steer_samples + int(np.argmin(np.abs(reverse)))  # the reverse command nearest 0
         self.batch = PrimitiveBatch(vehicle, s.primitive_length_m, s.samples, 2 * s.steer_samples)
+        self.steer_samples_forward = forward
+        opening_samples = round(OPENING_FORWARD_M / s.sample_step_m)
+        self.opening_batch = PrimitiveBatch(vehicle, OPENING_FORWARD_M, opening_samples, s.steer_samples)
         self.discs = Discs(vehicle)
-        self.shot = GoalShot(vehicle, s.sample_step_m, SHOT_LOOKAHEADS) if s.shot_length_m else None
+        self.endgame = EndGame(vehicle, goal, s) if s.shot_length_m else None
         self.bounds = self._bounds()
         self.grid = DistanceGrid(scene, self.bounds, s.collision_cell_m)
         self.need = self.discs.radius + s.min_clearance_m
@@ -194,7 +189,7 @@ class _Search:
 
     # --- search ------------------------------------------------------------------------------------------
 
-    def _done(self, status: str, detail: str, nodes: list[_Node] | None = None, last: int = -1) -> Plan:
+    def _done(self, status: str, detail: str, nodes: list[Node] | None = None, last: int = -1) -> Plan:
         path: dict[str, np.ndarray] = {}
         switches, length = 0, 0.0
         if nodes is not None:
@@ -226,15 +221,45 @@ class _Search:
             if not np.isfinite(self.holonomic(self.start[:1], self.start[1:2])[0]):
                 return self._done("no_path", "the goal cannot be reached from the start around the obstacles")
         if self._at_goal(self.start)[()]:
-            nodes = [_Node(self.start, 0.0, -1, 0.0, -1, np.zeros((0, 4)), np.zeros(0))]
+            nodes = [Node(self.start, 0.0, -1, 0.0, -1, np.zeros((0, 4)), np.zeros(0))]
             return self._done("found", "the start is within the goal tolerance", nodes, 0)
-        nodes = [_Node(self.start, 0.0, 0, 0.0, -1, np.zeros((0, 4)), np.zeros(0))]
-        heap: list[tuple[float, int]] = [(float(self._heuristic(self.start[None, :])[0]), 0)]
+        nodes = [Node(self.start, 0.0, 0, 0.0, -1, np.zeros((0, 4)), np.zeros(0))]
+        h_start = float(self._heuristic(self.start[None, :])[0])
+        if time.perf_counter() - self.began > s.time_limit_s:
+            return self._done("timeout", f"no path within the time limit of {s.time_limit_s:g} s")
+        if self.endgame is not None:
+            found = opening(self, nodes, h_start)
+            if found is not None:
+                return self._done("found", "within the goal tolerance (opening)", nodes, found)
+        status, found = self._astar(nodes, h_start, reverse_only=False, budget=MAX_NODES)
+        if status == "found":
+            return self._done("found", "within the goal tolerance", nodes, found)
+        if status == "timeout":
+            return self._done("timeout", f"no path within the time limit of {s.time_limit_s:g} s")
+        if status == "budget":
+            return self._done("timeout", f"the search passed {MAX_NODES} nodes")
+        self.exhausted = True
+        return self._done(
+            "no_path",
+            f"the search space is exhausted at a {s.xy_resolution_m:g} m grid: no path reaches the goal tolerance",
+        )
+
+    def _astar(self, nodes: list[Node], h_start: float, reverse_only: bool, budget: int) -> tuple[str, int]:
+        """Hybrid A* from node 0: ("found", goal node), ("timeout" | "budget" | "exhausted", -1).
+
+        ``reverse_only``: reverse primitives only (the single reverse runs of the opening); ``budget``: the
+        most nodes expanded.
+        """
+        s = self.settings
+        heap: list[tuple[float, int]] = [(h_start, 0)]
         best_g: dict[tuple[int, int, int, int], float] = {self._key(self.start): 0.0}
         closed: set[tuple[int, int, int, int]] = set()
+        expanded = 0
         while heap:
             if time.perf_counter() - self.began > s.time_limit_s:
-                return self._done("timeout", f"no path within the time limit of {s.time_limit_s:g} s")
+                return "timeout", -1
+            if expanded >= budget or len(nodes) > MAX_NODES:
+                return "budget", -1
             _, index = heapq.heappop(heap)
             node = nodes[index]
             key = self._key(node.state)
@@ -242,11 +267,11 @@ class _Search:
                 continue
             closed.add(key)
             self.expanded += 1
-            if self.shot is not None:
-                found = self._try_shot(nodes, index)
+            expanded += 1
+            if self.endgame is not None and index > 0:
+                found = self._land(nodes, index, dubins=expanded % DUBINS_EVERY == 0, max_length=s.shot_length_m)
                 if found is not None:
-                    return self._done("found", "within the goal tolerance by a reverse run onto the goal line",
-                                      nodes, found)  # fmt: skip
+                    return "found", found
             # Forward primitives hold a front steer, reverse ones a virtual steer (Eq. 45). The steer carries
             # on within a direction; at a change of direction (at standstill) it is set to what the command
             # asks at once.
@@ -257,6 +282,8 @@ class _Search:
             ok = np.all(np.abs(motions[:, 1:, 3]) <= self.hitch_limit, axis=1) & np.all(
                 np.isfinite(motions), axis=(1, 2)
             )
+            if reverse_only:
+                ok &= dirs < 0
             ok &= self._clear(motions)
             if not ok.any():
                 continue
@@ -268,11 +295,11 @@ class _Search:
             for hit in np.flatnonzero(arrived.any(axis=1)):
                 k = int(np.argmax(arrived[hit])) + 1
                 c = candidates[hit]
-                goal_node = _Node(motions[hit, k], float(steers[hit, k]), dirs[c], 0.0, index,
+                goal_node = Node(motions[hit, k], float(steers[hit, k]), dirs[c], 0.0, index,
                                   motions[hit, 1 : k + 1], steers[hit, 1 : k + 1])  # fmt: skip
                 nodes.append(goal_node)
                 if self._confirmed(nodes, len(nodes) - 1):
-                    return self._done("found", "within the goal tolerance", nodes, len(nodes) - 1)
+                    return "found", len(nodes) - 1
             ends = motions[:, -1, :]
             h = self._heuristic(ends)
             child_dirs = dirs[candidates]
@@ -291,67 +318,39 @@ class _Search:
                     continue
                 best_g[child_key] = g
                 d = int(child_dirs[row])
-                nodes.append(_Node(ends[row], float(steers[row, -1]), d, g, index, motions[row, 1:], steers[row, 1:]))
+                nodes.append(Node(ends[row], float(steers[row, -1]), d, g, index, motions[row, 1:], steers[row, 1:]))
                 heapq.heappush(heap, (g + float(h[row]), len(nodes) - 1))
-            if len(nodes) > MAX_NODES:
-                return self._done("timeout", f"the search passed {MAX_NODES} nodes")
-        self.exhausted = True
-        return self._done(
-            "no_path",
-            f"the search space is exhausted at a {s.xy_resolution_m:g} m grid: no path reaches the goal tolerance",
-        )
+        return "exhausted", -1
 
-    def _try_shot(self, nodes: list[_Node], index: int) -> int | None:
-        """End-game from node ``index``: reverse runs onto the goal line; the new goal node's index if one lands."""
-        assert self.shot is not None
-        node, s, goal = nodes[index], self.settings, self.goal
-        gx, gy, gyaw = (float(v) for v in to_goal_frame(goal, node.state[0], node.state[1], node.state[2]))
-        if gx <= 0.0 or abs(gyaw) > s.shot_max_heading or math.hypot(gx, gy) > s.shot_length_m:
-            return None
+    def _length(self, nodes: list[Node], last: int) -> float:
+        """Trailer-axle length [m] of the path ending at node ``last``."""
+        return float(self._path(nodes, last)["s"][-1])
+
+    def _land(self, nodes: list[Node], index: int, dubins: bool, max_length: float) -> int | None:
+        """End-games from node ``index`` (:mod:`.endgame`); the new goal node's index if one lands clear.
+
+        Runs longer than ``max_length`` (trailer axle) are not taken.
+        """
+        assert self.endgame is not None
+        node = nodes[index]
         steer = node.steer
         if node.direction != -1:  # at standstill: the steer the run asks first (virtual steer 0 as a stand-in)
             steer = float(self._initial_steer(float(node.state[3]))[self.straight_back])
-        runs = self.shot.run(
-            np.array([gx, gy, gyaw, node.state[3], steer]), s.virtual_limit, s.shot_length_m, self._shots_ended
-        )
-        c, sn = math.cos(goal.yaw), math.sin(goal.yaw)
-        for run in runs:
-            arrived = self._at_goal_frame(run[1:])
-            if not arrived.any():
+        landings = self.endgame.line_shots(node.state, steer)
+        if dubins:
+            landings += self.endgame.dubins_shots(node.state, steer, max_length)
+        for world, steers in sorted(landings, key=lambda landing: len(landing[0])):
+            xy = np.vstack([node.state[None, :2], world[:, :2]])
+            if np.hypot(*np.diff(xy, axis=0).T).sum() > max_length:
+                break
+            if not self._clear(np.vstack([node.state[None, :], world])[None])[0]:
                 continue
-            k = int(np.argmax(arrived)) + 1
-            part = run[: k + 1]
-            if np.any(np.abs(part[1:, 3]) > self.hitch_limit) or not np.all(np.isfinite(part)):
-                continue
-            world = part[:, :4].copy()
-            world[:, 0] = goal.x + c * part[:, 0] - sn * part[:, 1]
-            world[:, 1] = goal.y + sn * part[:, 0] + c * part[:, 1]
-            world[:, 2] = part[:, 2] + goal.yaw
-            if not self._clear(world[None])[0]:
-                continue
-            nodes.append(_Node(world[-1], float(part[-1, 4]), -1, 0.0, index, world[1:], part[1:, 4]))
+            nodes.append(Node(world[-1], float(steers[-1]), -1, 0.0, index, world, steers))
             if self._confirmed(nodes, len(nodes) - 1):
                 return len(nodes) - 1
         return None
 
-    def _shots_ended(self, runs: np.ndarray) -> bool:
-        """No run can still arrive: each has arrived, passed the goal, met the hitch limit or gone non-finite."""
-        last = runs[:, -1, :]
-        over = (last[:, 0] < -self.settings.goal_tolerance_m) | (np.abs(runs[:, :, 3]) > self.hitch_limit).any(axis=1)
-        over |= ~np.all(np.isfinite(last), axis=1) | self._at_goal_frame(runs[:, 1:].reshape(-1, 5)).reshape(
-            len(runs), -1
-        ).any(axis=1)
-        return bool(over.all())
-
-    def _at_goal_frame(self, states: np.ndarray) -> np.ndarray:
-        s = self.settings
-        return (
-            (np.hypot(states[:, 0], states[:, 1]) <= s.goal_tolerance_m)
-            & (np.abs(wrap_angle(states[:, 2])) <= s.goal_tolerance_yaw)
-            & (np.abs(states[:, 3]) <= s.goal_tolerance_hitch)
-        )
-
-    def _confirmed(self, nodes: list[_Node], last: int) -> bool:
+    def _confirmed(self, nodes: list[Node], last: int) -> bool:
         """The exact swept clearance of the path ending at node ``last`` keeps ``min_clearance_m``."""
         if self.scene.is_empty:
             return True
@@ -360,7 +359,7 @@ class _Search:
         bound, _ = swept_clearance(self.vehicle, self.scene, configs)
         return bound >= self.settings.min_clearance_m
 
-    def _path(self, nodes: list[_Node], last: int) -> dict[str, np.ndarray]:
+    def _path(self, nodes: list[Node], last: int) -> dict[str, np.ndarray]:
         chain = []
         i = last
         while i >= 0:

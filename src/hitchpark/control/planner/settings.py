@@ -53,10 +53,13 @@ class PlannerSettings:
     time_limit_s : float
         Wall-clock budget [s]; past it the result is ``timeout``.
     shot_length_m : float
-        End-game: from every node expanded within this trailer-axle distance of the goal, behind it and
-        heading within ``shot_max_heading`` of the goal heading, reverse runs onto the goal line (pure
-        pursuit of the trailer by its virtual steer, look-aheads 2.5, 4 and 6 m) are tried for this length
-        [m]; one that reaches the goal tolerance ends the search (0: no shots).
+        End-game (:mod:`~hitchpark.control.planner.endgame`): from every node expanded within this
+        trailer-axle distance of the goal, behind it and heading within ``shot_max_heading`` of the goal
+        heading, reverse runs onto the goal line (pure pursuit of the trailer by its virtual steer,
+        look-aheads 2.5, 4 and 6 m) are tried for this length [m], and from every tenth node reverse runs
+        along Dubins paths up to this long; one that reaches the goal tolerance ends the search. Before
+        searching, the opening tries single reverse runs from the start (up to 60 m), a short search of
+        reverse primitives, and forward arcs followed by a Dubins run (0: no end-games, no opening).
     shot_max_heading : float
         See ``shot_length_m`` [rad].
     goal_tolerance_m, goal_tolerance_yaw, goal_tolerance_hitch : float
@@ -72,7 +75,8 @@ class PlannerSettings:
     weight_forward, weight_reverse : float
         Cost per metre of trailer-axle path driven forward / in reverse.
     weight_switch : float
-        Cost of a change of direction [m of path].
+        Cost of a change of direction [m of path]; the opening takes a single reverse run over a path with
+        one change of direction when it is no more than this longer.
     weight_steer : float
         Cost per metre and radian of |steer|.
     weight_steer_change : float
@@ -109,7 +113,7 @@ class PlannerSettings:
     search_margin_m: float = checked(10.0, Real(0.0, 1000.0, unit="m"))
     weight_forward: float = checked(1.0, Real(0.0, 1000.0, low_open=True))
     weight_reverse: float = checked(1.0, Real(0.0, 1000.0, low_open=True))
-    weight_switch: float = checked(12.0, _WEIGHT)
+    weight_switch: float = checked(22.0, _WEIGHT)
     weight_steer: float = checked(0.2, _WEIGHT)
     weight_steer_change: float = checked(0.5, _WEIGHT)
     weight_hitch: float = checked(0.5, _WEIGHT)

@@ -1,0 +1,170 @@
+"""The planner's end-games: single reverse runs from a configuration into the goal tolerance.
+
+Two kinds, both the trailer axle driven backwards by pure pursuit of its virtual steer (Eq. 42), the
+front steer from Eq. (45), rate-limited (:mod:`~hitchpark.control.planner.motion`):
+
+- **Goal-line shots**: the axle pursues the goal line y = 0 (goal frame) with a few look-aheads. Cheap
+  (one CasADi call per 40 samples); they land from configurations behind the goal roughly facing it.
+- **Dubins shots**: the axle pursues a reverse Dubins path (:mod:`~hitchpark.control.planner.dubins`)
+  to a point on the goal line, then the line itself: the words of a few radii above the trailer's
+  least radius ``L_T / tan(virtual_limit)`` (Eq. 42), so that pure pursuit, the hitch's transient and the
+  steer-rate ramp fit in the margin. They land from almost anywhere in open space with a single
+  reverse run that bends; tried from the start before searching and from some expanded nodes.
+
+A run counts when a sample reaches the goal tolerance with the hitch within ``max_hitch - hitch_margin``
+at every sample before it; the caller screens collisions and confirms the swept clearance.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...model.state import Pose, to_goal_frame, wrap_angle
+from ...model.vehicle import VehicleTrailer
+from .dubins import dubins_words, sample_word
+from .motion import GoalShot, PathPursuit
+from .settings import PlannerSettings
+
+__all__ = ["EndGame", "Landing"]
+
+#: Look-aheads of the goal-line shots [m].
+SHOT_LOOKAHEADS = (2.5, 4.0, 6.0)
+
+#: Radii of the Dubins shots, in multiples of the trailer's least radius ``L_T / tan(virtual_limit)``.
+DUBINS_RADII = (1.0, 1.15, 1.4)
+
+#: Lengths of the straight approach along the goal line that ends each Dubins reference [m].
+DUBINS_APPROACHES = (1.5, 4.0)
+
+#: Words tried per radius and approach (the shortest ones).
+DUBINS_WORDS = 3
+
+#: Look-ahead of the pursuit along a Dubins reference [m].
+DUBINS_LOOKAHEAD_M = 2.0
+
+#: A Dubins run farther than this from its reference is given up [m].
+DUBINS_MAX_DEVIATION_M = 2.0
+
+#: Landing: world-frame samples (k, 4) after the run's start and the front steer at them (k,).
+Landing = tuple[np.ndarray, np.ndarray]
+
+
+class EndGame:
+    """Single reverse runs into the goal tolerance for one vehicle, goal and settings."""
+
+    def __init__(self, vehicle: VehicleTrailer, goal: Pose, settings: PlannerSettings):
+        self.goal, self.settings = goal, settings
+        self.hitch_limit = vehicle.max_hitch - settings.hitch_margin
+        self.line = GoalShot(vehicle, settings.sample_step_m, SHOT_LOOKAHEADS)
+        self.least_radius = vehicle.trailer_length / math.tan(settings.virtual_limit)  # Eq. (42)
+        runs = len(DUBINS_RADII) * len(DUBINS_APPROACHES) * DUBINS_WORDS
+        self.pursuit = PathPursuit(vehicle, settings.sample_step_m, runs)
+
+    def in_goal_frame(self, state: np.ndarray) -> tuple[float, float, float]:
+        gx, gy, gyaw = to_goal_frame(self.goal, state[0], state[1], state[2])
+        return float(gx), float(gy), float(gyaw)
+
+    def line_shots(self, state: np.ndarray, steer: float) -> list[Landing]:
+        """Goal-line shots from ``state`` (x, y, yaw, hitch) with the front steer ``steer``, shortest first."""
+        s = self.settings
+        gx, gy, gyaw = self.in_goal_frame(state)
+        if gx <= 0.0 or abs(gyaw) > s.shot_max_heading or math.hypot(gx, gy) > s.shot_length_m:
+            return []
+        start = np.array([gx, gy, gyaw, state[3], steer])
+        return self._landings(self.line.run(start, s.virtual_limit, s.shot_length_m, self._lines_ended))
+
+    def dubins_shots(self, state: np.ndarray, steer: float, max_length: float) -> list[Landing]:
+        """Dubins shots from ``state`` with the front steer ``steer``, shortest first.
+
+        Only references up to ``max_length`` (trailer axle, to the goal) are pursued.
+        """
+        s = self.settings
+        gx, gy, gyaw = self.in_goal_frame(state)
+        step = s.sample_step_m
+        if math.hypot(gx, gy) > max_length:
+            return []
+        references, longest = [], 0
+        tail = DUBINS_LOOKAHEAD_M + s.goal_tolerance_m + step
+        for factor in DUBINS_RADII:
+            radius = factor * self.least_radius
+            for approach in DUBINS_APPROACHES:
+                words = dubins_words((gx, gy, gyaw + math.pi), (approach, 0.0, math.pi), radius)[:DUBINS_WORDS]
+                for word, lengths in words:
+                    if sum(lengths) + approach > max_length:
+                        continue
+                    points = sample_word((gx, gy, gyaw + math.pi), word, lengths, radius, step)[:, :2]
+                    line = np.arange(approach - step, -tail, -step)
+                    points = np.vstack([points, np.column_stack([line, np.zeros(len(line))])])
+                    references.append(points)
+                    longest = max(longest, len(points))
+        if not references:
+            return []
+        while len(references) < self.pursuit.runs:  # fewer words than runs: repeat the last
+            references.append(references[-1])
+        padded = np.stack([np.vstack([r, np.repeat(r[-1:], longest - len(r), axis=0)]) for r in references])
+        start = np.array([gx, gy, gyaw, state[3], steer])
+        lookaheads = np.full(self.pursuit.runs, DUBINS_LOOKAHEAD_M)
+        runs = self.pursuit.run(start, padded, lookaheads, s.virtual_limit, self._dubins_ended)
+        return self._landings(runs)
+
+    def dubins_estimate(self, state: np.ndarray) -> float:
+        """Length [m] of the shortest Dubins reference from ``state`` with the longest approach (trailer axle).
+
+        The longest approach and the middle radius: a reference a pursuit follows into the tolerance.
+        """
+        gx, gy, gyaw = self.in_goal_frame(state)
+        approach, radius = DUBINS_APPROACHES[-1], DUBINS_RADII[len(DUBINS_RADII) // 2] * self.least_radius
+        words = dubins_words((gx, gy, gyaw + math.pi), (approach, 0.0, math.pi), radius)
+        return sum(words[0][1]) + approach if words else math.inf
+
+    # --- goal-frame tests -----------------------------------------------------------------------------
+
+    def at_goal(self, states: np.ndarray) -> np.ndarray:
+        """Goal-frame states (..., >=4) within the goal tolerance."""
+        s = self.settings
+        return (
+            (np.hypot(states[..., 0], states[..., 1]) <= s.goal_tolerance_m)
+            & (np.abs(wrap_angle(states[..., 2])) <= s.goal_tolerance_yaw)
+            & (np.abs(states[..., 3]) <= s.goal_tolerance_hitch)
+        )
+
+    def _lost(self, states: np.ndarray) -> np.ndarray:
+        """Goal-frame states (n, 5) that cannot still arrive: past the goal, over the hitch limit, non-finite."""
+        return (
+            (states[:, 0] < -self.settings.goal_tolerance_m)
+            | (np.abs(states[:, 3]) > self.hitch_limit)
+            | ~np.all(np.isfinite(states), axis=1)
+        )
+
+    def _lines_ended(self, runs: np.ndarray) -> bool:
+        """No goal-line run can still arrive: each has arrived or is lost at some sample."""
+        over = (np.abs(runs[:, :, 3]) > self.hitch_limit).any(axis=1) | self._lost(runs[:, -1, :])
+        return bool((over | self.at_goal(runs[:, 1:]).any(axis=1)).all())
+
+    def _dubins_ended(self, states: np.ndarray, deviation: np.ndarray) -> np.ndarray:
+        return self.at_goal(states) | self._lost(states) | (deviation > DUBINS_MAX_DEVIATION_M)
+
+    def _landings(self, runs: np.ndarray) -> list[Landing]:
+        """The runs (goal frame, (n, samples + 1, 5)) that arrive within the limits, in the world frame."""
+        arrived = self.at_goal(runs[:, 1:])
+        found = []
+        for run, hits in zip(runs, arrived, strict=True):
+            if not hits.any():
+                continue
+            part = run[1 : int(np.argmax(hits)) + 2]
+            if np.any(np.abs(part[:, 3]) > self.hitch_limit) or not np.all(np.isfinite(part)):
+                continue
+            found.append(part)
+        found.sort(key=len)
+        goal = self.goal
+        c, sn = math.cos(goal.yaw), math.sin(goal.yaw)
+        landings = []
+        for part in found:
+            world = part[:, :4].copy()
+            world[:, 0] = goal.x + c * part[:, 0] - sn * part[:, 1]
+            world[:, 1] = goal.y + sn * part[:, 0] + c * part[:, 1]
+            world[:, 2] = part[:, 2] + goal.yaw
+            landings.append((world, part[:, 4]))
+        return landings
