@@ -16,7 +16,7 @@ from hitchpark.control.pure_pursuit import (
     forward_steer_limit,
     pure_pursuit_steer,
 )
-from hitchpark.maneuver import ManeuverSettings, park
+from hitchpark.maneuver import ManeuverSettings, ProcessSettings, park
 from hitchpark.model import IDEAL, Pose, VehicleTrailer, full_rhs, rear_axle_pose, step_full
 from hitchpark.sim import State
 
@@ -74,9 +74,12 @@ def test_forward_steer_limit_holds_the_hitch_inside_max_hitch(table4):
     assert full_rhs(table4, np.array([0.0, 0.0, 0.0, table4.max_hitch]), np.array([1.0, table4.max_steer]))[3] > 0
 
 
+STAGED = ProcessSettings(kind="staged")  # the forward stage of the 3-stage process (Fig. 7)
+
+
 @pytest.mark.parametrize(
     ("settings", "plant"),
-    [(ManeuverSettings(nmpc=NMPCSettings(kind="paper")), IDEAL), (ManeuverSettings(), None)],
+    [(ManeuverSettings(nmpc=NMPCSettings(kind="paper")), IDEAL), (ManeuverSettings(process=STAGED), None)],
     ids=["paper", "full"],
 )
 @pytest.mark.parametrize("start", [(4.62, -2.06, 132.24, 15.86), (10.0, 0.0, 180.0, 0.0), (-8.22, -12.17, 147.0, 30.6)])

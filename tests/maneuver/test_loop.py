@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from hitchpark.io import to_jsonable
-from hitchpark.maneuver import ManeuverResult, Outcome, park
+from hitchpark.maneuver import ManeuverResult, ManeuverSettings, Outcome, ProcessSettings, park
 from hitchpark.model import PlantSettings, State, VehicleTrailer
 
 V = VehicleTrailer()
@@ -95,6 +95,7 @@ def test_maneuver_json_records_the_plant_and_round_trips(results):
 def test_full_nmpc_on_the_ideal_plant_starts_each_stage_from_rest():
     """Regression: the ideal car read its last forward speed while standing, and the next reverse
     stage's full NMPC, starting from +1 m/s, found its problem infeasible."""
-    result = park(V, State(8.0, 2.0, 0.3, 0.1), plant=PlantSettings(kind="ideal"))
+    staged = ManeuverSettings(process=ProcessSettings(kind="staged"))
+    result = park(V, State(8.0, 2.0, 0.3, 0.1), settings=staged, plant=PlantSettings(kind="ideal"))
     assert [s.kind for s in result.stages][:3] == ["reverse", "forward", "reverse"]
     assert result.outcome is Outcome.PARKED, result.detail
