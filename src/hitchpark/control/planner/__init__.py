@@ -1,10 +1,12 @@
 """Path planning among obstacles (issue 9): Hybrid A* over the exact off-axle car-trailer model.
 
-:func:`plan` searches the trailer-axle pose and hitch angle with forward and reverse primitives of the
-full model (Eqs. 19-24), the steer, steer-rate and jackknife limits enforced at every sample, collisions
-screened with discs on a distance grid and the result confirmed by the exact swept clearance. It returns
-a :class:`Plan`: ``found`` with the path, or ``no_path`` / ``timeout``. The path ends within the goal
-tolerance; the tracking NMPC closes the last centimetres.
+:func:`plan` first tries paths with at most one change of direction (:mod:`.opening`: single reverse
+runs that bend, the trailer steered by its virtual steer, Eqs. 42 and 45), then searches the trailer-axle
+pose and hitch angle with forward and reverse primitives of the full model (Eqs. 19-24), the steer,
+steer-rate and jackknife limits enforced at every sample, collisions screened with discs on a distance
+grid and the result confirmed by the exact swept clearance. It returns a :class:`Plan`: ``found`` with
+the path, or ``no_path`` / ``timeout``. The path ends within the goal tolerance; the tracking NMPC closes
+the last centimetres.
 """
 
 from .search import plan
