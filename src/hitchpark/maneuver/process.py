@@ -6,10 +6,13 @@ reverse stage follows, up to ``max_stages``. Every stage starts and ends at stan
 car brakes to a stop, then the steer is set to what the next stage wants before it moves
 (those samples are recorded and their time counts). Success is judged on the true state.
 
-Obstacles and an area (a :class:`~hitchpark.model.scene.Scene`) are checked once, at the end, on the
+A process (:class:`~.stages.Process`) chooses the stages: the staged one alternates them as above;
+the planned one (:mod:`.planned`, the default with the full-model NMPC) plans a path among the
+obstacles, tracks it under a guard that stops the car near the scene, and plans again when it must.
+Obstacles and an area (a :class:`~hitchpark.model.scene.Scene`) are also checked at the end, on the
 whole true motion of the real car (:func:`~hitchpark.model.collision.swept_clearance`): a maneuver that
 came closer to them than ``success.min_clearance_m`` (or touched them, or left the area) fails with
-the outcome ``collision``. The controllers do not see the scene: they do not avoid obstacles.
+the outcome ``collision``.
 """
 
 from __future__ import annotations
@@ -260,8 +263,9 @@ def park(
         The car driven (default: the realistic car, :class:`PlantSettings`); its lengths may differ
         from ``vehicle``'s.
     scene : Scene
-        Obstacles and an area, world frame (default: none). Not avoided: checked on the true motion at
-        the end, against ``settings.success.min_clearance_m`` (outcome ``collision`` if closer).
+        Obstacles and an area, world frame (default: none). The planned process avoids them; the staged
+        one does not see them. Checked on the true motion at the end, against
+        ``settings.success.min_clearance_m`` (outcome ``collision`` if closer).
 
     Returns
     -------
