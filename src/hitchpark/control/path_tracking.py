@@ -28,13 +28,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..checks import MAX_SPEED, Real, check_fields, checked
-from ..model.inverse import front_steer_from_virtual, virtual_steer_from_front
-from ..model.kinematics import rear_axle_pose, trailer_speed_from_rear_speed
+from ..model.inverse import front_steer_from_virtual
+from ..model.kinematics import rear_axle_pose
 from ..model.plant import Command, Measurement
 from ..model.state import Pose, wrap_angle
 from ..model.vehicle import VehicleTrailer
 from .nmpc import NMPCStep
-from .pure_pursuit import forward_steer_limit
+from .pure_pursuit import command_step, forward_steer_limit
 
 __all__ = ["PathTracker", "TrackingSettings", "direction_segments"]
 
@@ -212,31 +212,13 @@ class PathTracker:
         steer = self.steer(state)
         hitch = float(state[3])
         if self.deviation > self.settings.max_deviation_m:
-            return _step(v, hitch, 0.0, steer, ok=False, stop=True,
+            return command_step(v, hitch, 0.0, steer, ok=False, stop=True,
                          status=f"deviated {self.deviation:.2f} m from the planned path")  # fmt: skip
         if abs(hitch) > v.max_hitch - self.settings.hitch_margin:
-            return _step(v, hitch, 0.0, steer, ok=False, stop=True,
+            return command_step(v, hitch, 0.0, steer, ok=False, stop=True,
                          status=f"hitch {math.degrees(hitch):.1f} deg near the jackknife limit")  # fmt: skip
         if left <= END_TOLERANCE_M:
-            return _step(v, hitch, 0.0, steer, ok=True, stop=True, status="end of segment")
+            return command_step(v, hitch, 0.0, steer, ok=True, stop=True, status="end of segment")
         # Slow down to stop at the end, braking at half the acceleration limit (the rest for the delay).
         speed = min(self.settings.speed, math.sqrt(max(left - END_TOLERANCE_M, 0.0) * v.max_accel) + 0.05)
-        return _step(v, hitch, self.direction * speed, steer, ok=True, stop=False, status="")
-
-
-def _step(
-    vehicle: VehicleTrailer, hitch: float, speed: float, steer: float, ok: bool, stop: bool, status: str
-) -> NMPCStep:
-    return NMPCStep(
-        float(trailer_speed_from_rear_speed(vehicle, hitch, speed, steer)),  # Eq. (18)
-        float(virtual_steer_from_front(vehicle, hitch, steer)),  # Eq. (56)
-        speed,
-        steer,
-        math.nan,
-        math.nan,
-        ok,
-        stop,
-        status,
-        np.zeros((0, 0)),
-        np.zeros((0, 0)),
-    )
+        return command_step(v, hitch, self.direction * speed, steer, ok=True, stop=False, status="")

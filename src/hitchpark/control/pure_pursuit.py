@@ -27,7 +27,14 @@ from ..model.state import Pose, to_goal_frame, wrap_angle
 from ..model.vehicle import VehicleTrailer
 from .nmpc import NMPCStep
 
-__all__ = ["ForwardPursuit", "PurePursuitSettings", "forward_done", "forward_steer_limit", "pure_pursuit_steer"]
+__all__ = [
+    "ForwardPursuit",
+    "PurePursuitSettings",
+    "command_step",
+    "forward_done",
+    "forward_steer_limit",
+    "pure_pursuit_steer",
+]
 
 
 @dataclass(frozen=True)
@@ -151,17 +158,24 @@ class ForwardPursuit:
         done = forward_done(goal, self.settings, state)
         steer = pure_pursuit_steer(v, goal, self.settings, state, self.limit)
         speed = 0.0 if done else self.settings.speed
-        hitch = state[3]
-        return NMPCStep(
-            float(trailer_speed_from_rear_speed(v, hitch, speed, steer)),  # Eq. (18)
-            float(virtual_steer_from_front(v, hitch, steer)),  # Eq. (56)
-            speed,
-            steer,
-            math.nan,
-            math.nan,
-            True,
-            done,
-            "repositioned" if done else "",
-            np.zeros((0, 0)),
-            np.zeros((0, 0)),
-        )
+        return command_step(v, float(state[3]), speed, steer, ok=True, stop=done, status="repositioned" if done else "")
+
+
+def command_step(
+    vehicle: VehicleTrailer, hitch: float, speed: float, steer: float, ok: bool, stop: bool, status: str
+) -> NMPCStep:
+    """A command of a controller that does not optimise, as an :class:`NMPCStep` (no cost, no solve, no
+    prediction), with the trailer's view of it: Eqs. (18) and (56)."""
+    return NMPCStep(
+        float(trailer_speed_from_rear_speed(vehicle, hitch, speed, steer)),  # Eq. (18)
+        float(virtual_steer_from_front(vehicle, hitch, steer)),  # Eq. (56)
+        speed,
+        steer,
+        math.nan,
+        math.nan,
+        ok,
+        stop,
+        status,
+        np.zeros((0, 0)),
+        np.zeros((0, 0)),
+    )
