@@ -84,7 +84,7 @@ class ProcessSettings:
 
     kind: str = checked("auto", Choice(PROCESS_KINDS))
     max_replans: int = checked(4, Integer(0, 100))
-    approach_m: float = checked(6.0, Real(0.0, 100.0, unit="m"))
+    approach_m: float = checked(8.0, Real(0.0, 100.0, unit="m"))
     handover_m: float = checked(4.0, Real(0.0, 100.0, unit="m"))
     plan_margin_m: float = checked(0.1, Real(0.0, 5.0, unit="m"))
     guard_margin_m: float = checked(0.03, Real(0.0, 5.0, unit="m"))

@@ -21,11 +21,11 @@ import math
 
 import numpy as np
 
-from ...model.state import Pose, to_goal_frame, wrap_angle
+from ...model.state import Pose, to_goal_frame
 from ...model.vehicle import VehicleTrailer
 from .dubins import dubins_words, sample_word
 from .motion import GoalShot, PathPursuit
-from .settings import PlannerSettings
+from .settings import PlannerSettings, arrived
 
 __all__ = ["EndGame", "Landing"]
 
@@ -35,7 +35,8 @@ SHOT_LOOKAHEADS = (2.5, 4.0, 6.0)
 #: Radii of the Dubins shots, in multiples of the trailer's least radius ``L_T / tan(virtual_limit)``.
 DUBINS_RADII = (1.0, 1.15, 1.4)
 
-#: Lengths of the straight approach along the goal line that ends each Dubins reference [m].
+#: Lengths of the straight approach along the goal line that ends each Dubins reference [m], beyond
+#: ``goal_line_from_m``.
 DUBINS_APPROACHES = (1.5, 4.0)
 
 #: Words tried per radius and approach (the shortest ones).
@@ -59,6 +60,7 @@ class EndGame:
         self.hitch_limit = vehicle.max_hitch - settings.hitch_margin
         self.line = GoalShot(vehicle, settings.sample_step_m, SHOT_LOOKAHEADS)
         self.least_radius = vehicle.trailer_length / math.tan(settings.virtual_limit)  # Eq. (42)
+        self.approaches = tuple(a + settings.goal_line_from_m for a in DUBINS_APPROACHES)
         runs = len(DUBINS_RADII) * len(DUBINS_APPROACHES) * DUBINS_WORDS
         self.pursuit = PathPursuit(vehicle, settings.sample_step_m, runs)
 
@@ -89,7 +91,7 @@ class EndGame:
         tail = DUBINS_LOOKAHEAD_M + s.goal_tolerance_m + step
         for factor in DUBINS_RADII:
             radius = factor * self.least_radius
-            for approach in DUBINS_APPROACHES:
+            for approach in self.approaches:
                 words = dubins_words((gx, gy, gyaw + math.pi), (approach, 0.0, math.pi), radius)[:DUBINS_WORDS]
                 for word, lengths in words:
                     if sum(lengths) + approach > max_length:
@@ -115,7 +117,7 @@ class EndGame:
         The longest approach and the middle radius: a reference a pursuit follows into the tolerance.
         """
         gx, gy, gyaw = self.in_goal_frame(state)
-        approach, radius = DUBINS_APPROACHES[-1], DUBINS_RADII[len(DUBINS_RADII) // 2] * self.least_radius
+        approach, radius = self.approaches[-1], DUBINS_RADII[len(DUBINS_RADII) // 2] * self.least_radius
         words = dubins_words((gx, gy, gyaw + math.pi), (approach, 0.0, math.pi), radius)
         return sum(words[0][1]) + approach if words else math.inf
 
@@ -123,12 +125,7 @@ class EndGame:
 
     def at_goal(self, states: np.ndarray) -> np.ndarray:
         """Goal-frame states (..., >=4) within the goal tolerance."""
-        s = self.settings
-        return (
-            (np.hypot(states[..., 0], states[..., 1]) <= s.goal_tolerance_m)
-            & (np.abs(wrap_angle(states[..., 2])) <= s.goal_tolerance_yaw)
-            & (np.abs(states[..., 3]) <= s.goal_tolerance_hitch)
-        )
+        return arrived(self.settings, states[..., 0], states[..., 1], states[..., 2], states[..., 3])
 
     def _lost(self, states: np.ndarray) -> np.ndarray:
         """Goal-frame states (n, 5) that cannot still arrive: past the goal, over the hitch limit, non-finite."""

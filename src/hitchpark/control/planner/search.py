@@ -21,7 +21,7 @@ from .heuristic import TrailerTable, trailer_table
 from .motion import PrimitiveBatch
 from .nodes import Node
 from .opening import OPENING_FORWARD_M, opening
-from .settings import Plan, PlannerSettings
+from .settings import Plan, PlannerSettings, arrived
 
 __all__ = ["plan"]
 
@@ -168,13 +168,8 @@ class _Search:
         return np.asarray(s.heuristic_weight * h, dtype=float)
 
     def _at_goal(self, states: np.ndarray) -> np.ndarray:
-        s = self.settings
         gx, gy, gyaw = to_goal_frame(self.goal, states[..., 0], states[..., 1], states[..., 2])
-        return (
-            (np.hypot(gx, gy) <= s.goal_tolerance_m)
-            & (np.abs(gyaw) <= s.goal_tolerance_yaw)
-            & (np.abs(states[..., 3]) <= s.goal_tolerance_hitch)
-        )
+        return arrived(self.settings, gx, gy, gyaw, states[..., 3])
 
     def _clear(self, states: np.ndarray) -> np.ndarray:
         """Per primitive (n, k+1, 4): True if samples 1..k keep clear (the fast approximation)."""
@@ -214,9 +209,14 @@ class _Search:
             exact, _ = swept_clearance(self.vehicle, self.scene, self.start[None, :])
             if exact < s.min_clearance_m:
                 return self._done("no_path", f"the start keeps only {exact:.3g} m from the scene")
-            goal_state = np.array([[[self.goal.x, self.goal.y, self.goal.yaw, 0.0]] * 2])
-            if not self._clear(goal_state)[0]:
-                return self._done("no_path", "the goal is blocked: the bodies at the goal do not keep clear")
+            # Exactly (the fast check is conservative by a few decimetres, and a goal in a tight space is the point).
+            at_goal, _ = swept_clearance(
+                self.vehicle, self.scene, np.array([[self.goal.x, self.goal.y, self.goal.yaw, 0.0]])
+            )
+            if at_goal < s.min_clearance_m:
+                return self._done(
+                    "no_path", f"the goal is blocked: the bodies at the goal keep only {at_goal:.3g} m from the scene"
+                )
             assert self.holonomic is not None
             if not np.isfinite(self.holonomic(self.start[:1], self.start[1:2])[0]):
                 return self._done("no_path", "the goal cannot be reached from the start around the obstacles")

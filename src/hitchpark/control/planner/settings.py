@@ -9,8 +9,9 @@ from typing import Any
 import numpy as np
 
 from ...checks import InputError, Integer, Real, check_fields, checked
+from ...model.state import wrap_angle
 
-__all__ = ["PATH_COLUMNS", "STATUSES", "Plan", "PlannerSettings"]
+__all__ = ["PATH_COLUMNS", "STATUSES", "Plan", "PlannerSettings", "arrived"]
 
 #: What :attr:`Plan.status` can be.
 STATUSES = ("found", "no_path", "timeout")
@@ -65,6 +66,10 @@ class PlannerSettings:
     goal_tolerance_m, goal_tolerance_yaw, goal_tolerance_hitch : float
         The search ends at the first sample within these of the goal: trailer-axle distance [m], heading
         [rad], hitch angle [rad]. The last centimetres are left to the tracking NMPC.
+    goal_line_from_m, goal_line_m : float
+        The path may end anywhere on the goal line from ``goal_line_from_m`` to ``goal_line_m`` ahead of
+        the goal [m] (within the goal tolerance of that segment, heading along it, hitch straight): the
+        straight rest is left to the tracking controller. Both 0: at the goal itself.
     min_clearance_m : float
         Least distance [m] of every body from every obstacle and from the area's boundary.
     collision_cell_m : float
@@ -108,12 +113,14 @@ class PlannerSettings:
     goal_tolerance_m: float = checked(0.3, Real(0.0, 10.0, low_open=True, unit="m"))
     goal_tolerance_yaw: float = checked(math.radians(3.0), _ANGLE)
     goal_tolerance_hitch: float = checked(math.radians(3.0), _ANGLE)
+    goal_line_from_m: float = checked(0.0, Real(0.0, 100.0, unit="m"))
+    goal_line_m: float = checked(0.0, Real(0.0, 100.0, unit="m"))
     min_clearance_m: float = checked(0.2, Real(0.0, 10.0, unit="m"))
     collision_cell_m: float = checked(0.1, Real(0.02, 1.0, unit="m"))
     search_margin_m: float = checked(10.0, Real(0.0, 1000.0, unit="m"))
     weight_forward: float = checked(1.0, Real(0.0, 1000.0, low_open=True))
     weight_reverse: float = checked(1.0, Real(0.0, 1000.0, low_open=True))
-    weight_switch: float = checked(22.0, _WEIGHT)
+    weight_switch: float = checked(12.0, _WEIGHT)
     weight_steer: float = checked(0.2, _WEIGHT)
     weight_steer_change: float = checked(0.5, _WEIGHT)
     weight_hitch: float = checked(0.5, _WEIGHT)
@@ -124,6 +131,11 @@ class PlannerSettings:
 
     def __post_init__(self) -> None:
         check_fields(self, "planner.")
+        if self.goal_line_from_m > self.goal_line_m:
+            raise InputError(
+                f"planner.goal_line_from_m must be <= planner.goal_line_m ({self.goal_line_m:g} m), "
+                f"got {self.goal_line_from_m:g}"
+            )
         if self.sample_step_m > self.primitive_length_m:
             raise InputError(
                 f"planner.sample_step_m must be <= planner.primitive_length_m ({self.primitive_length_m:g} m), "
@@ -136,6 +148,16 @@ class PlannerSettings:
     def samples(self) -> int:
         """Samples (RK4 steps) per primitive."""
         return max(1, round(self.primitive_length_m / self.sample_step_m))
+
+
+def arrived(settings: PlannerSettings, gx: Any, gy: Any, gyaw: Any, hitch: Any) -> Any:
+    """Goal-frame configurations within the goal tolerance of the goal (or of its line, ``goal_line_m``)."""
+    along = np.clip(gx, settings.goal_line_from_m, settings.goal_line_m)
+    return (
+        (np.hypot(np.asarray(gx) - along, gy) <= settings.goal_tolerance_m)
+        & (np.abs(wrap_angle(gyaw)) <= settings.goal_tolerance_yaw)
+        & (np.abs(hitch) <= settings.goal_tolerance_hitch)
+    )
 
 
 @dataclass(frozen=True)
