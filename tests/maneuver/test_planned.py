@@ -80,3 +80,13 @@ def test_process_settings_read_from_a_table():
     assert ManeuverSettings.from_dict(s.to_dict()) == s
     assert math.isclose(ManeuverSettings().process.handover_m, 4.0)
     assert Pose() == Pose(0.0, 0.0, 0.0)
+
+
+def test_the_campsite_scene_parks_clear_of_the_trees():
+    from hitchpark.maneuver.scenario import builtin_scenario
+
+    sc = builtin_scenario("campsite")
+    r = park(sc.vehicle, sc.start, sc.goal, sc.settings, plant=sc.plant, scene=sc.scene)
+    assert r.success, r.detail
+    assert not r.collision and r.min_clearance_m >= sc.settings.success.min_clearance_m
+    assert r.plans and r.plans[-1].status == "found"
