@@ -91,6 +91,8 @@ class _Search:
     def __init__(
         self, vehicle: VehicleTrailer, start: State, goal: Pose, scene: Scene, settings: PlannerSettings, began: float
     ):
+        if not scene.is_empty and settings.obstacle_virtual_limit > settings.virtual_limit:
+            settings = replace(settings, virtual_limit=settings.obstacle_virtual_limit)
         self.vehicle, self.goal, self.scene, self.settings, self.began = vehicle, goal, scene, settings, began
         self.start = start.as_array()
         s = settings
