@@ -6,7 +6,7 @@ lies in a blocked cell. The Euclidean distance transform (:func:`scipy.ndimage.d
 of the free cells gives, at a point's cell, a distance that overestimates the true distance to the
 scene by at most one cell diagonal; :meth:`DistanceGrid.clear` subtracts that.
 
-**Outline points.** Points at most 0.25 m apart on the outlines of the vehicle and trailer bodies, the
+**Outline points.** Points at most 0.1 m apart on the outlines of the vehicle and trailer bodies, the
 drawbar and the tow bar. A configuration is clear when every point is more than half the spacing,
 ``min_clearance_m`` and the grid's error from the scene; a motion sample, in addition, by half the
 largest body movement to the next sample. Conservative: the exact check
@@ -35,7 +35,7 @@ from ...model.vehicle import VehicleTrailer
 __all__ = ["Discs", "DistanceGrid", "HolonomicHeuristic"]
 
 #: Spacing of the points on the body outlines [m].
-POINT_SPACING = 0.25
+POINT_SPACING = 0.1
 
 
 class Discs:
