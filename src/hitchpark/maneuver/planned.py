@@ -80,8 +80,13 @@ class PlannedProcess:
         self.vehicle, self.settings, self.scene, self.nmpc = vehicle, settings, scene, nmpc
         clearance = settings.success.min_clearance_m + settings.process.plan_margin_m
         self.planner = replace(settings.planner, min_clearance_m=max(settings.planner.min_clearance_m, clearance))
+        self.tracking = settings.tracking
         self.guard = None
         if not scene.is_empty:
+            # Among obstacles the planner may turn the trailer up to its obstacle_virtual_limit: the tracker
+            # must be allowed as much to follow.
+            limit = max(settings.tracking.virtual_limit, self.planner.obstacle_virtual_limit)
+            self.tracking = replace(settings.tracking, virtual_limit=limit)
             self.guard = Guard(
                 vehicle,
                 scene,
@@ -189,7 +194,7 @@ class PlannedProcess:
             return []
         ahead = line[to_goal_frame(goal, line[:, 0], line[:, 1], line[:, 2])[0] > max(gx, 0.0) + 0.05]
         forward = PathTracker(
-            self.vehicle, self.settings.tracking, self.settings.nmpc.dt, np.vstack([s.as_array()[None, :], ahead]), 1
+            self.vehicle, self.tracking, self.settings.nmpc.dt, np.vstack([s.as_array()[None, :], ahead]), 1
         )
         return [self._guarded(TrackingStage(forward)), *self._stages(None, line[-1:], goal)]
 
@@ -225,7 +230,7 @@ class PlannedProcess:
         stages: list[Stage] = []
         for i, (part, d) in enumerate(segments):
             until = self.settings.process.handover_m if i == len(segments) - 1 else 0.0
-            tracker = PathTracker(self.vehicle, self.settings.tracking, self.settings.nmpc.dt, part, d, until)
+            tracker = PathTracker(self.vehicle, self.tracking, self.settings.nmpc.dt, part, d, until)
             if tracker.stop_at > 0.0:
                 stages.append(self._guarded(TrackingStage(tracker)))
         stages.append(self._guarded(ReverseStage(self.nmpc)))
