@@ -66,10 +66,14 @@ def stage_color(index: int) -> str:
     return STAGE_COLORS[index % len(STAGE_COLORS)]
 
 
+#: How a stage's controller is named in titles (files without it: by the stage's kind, as the 3-stage process).
+CONTROLLER_NAMES = {"nmpc": "NMPC", "pursuit": "pure pursuit", "tracking": "path tracking"}
+
+
 def stage_name(result: ManeuverResult, index: int) -> str:
-    kind = result.stages[index].kind
-    how = "NMPC" if kind == "reverse" else "pure pursuit"
-    return f"Stage {index + 1}: {kind} ({how})"
+    stage = result.stages[index]
+    how = CONTROLLER_NAMES.get(stage.controller) or ("NMPC" if stage.kind == "reverse" else "pure pursuit")
+    return f"Stage {index + 1}: {stage.kind} ({how})"
 
 
 def outcome(result: ManeuverResult) -> str:
