@@ -1,19 +1,21 @@
 """The planned process: plan a path among the obstacles, track it, and plan again when it cannot be followed.
 
 From the measured start, :func:`~hitchpark.control.planner.plan` finds a path on the full model that
-keeps ``success.min_clearance_m + process.plan_margin_m`` from the scene, to a point
-``process.approach_m`` out along the goal line; a straight reverse along the line to the goal follows
-(the NMPC parks best from a straight approach, as after the paper's forward stage). The direction
-segments become stages, each tracked by a :class:`~hitchpark.control.path_tracking.PathTracker`
-between standstills; the reverse NMPC parks the last ``process.handover_m`` to the millimetre. Among
-obstacles every stage is guarded (:class:`~hitchpark.control.guard.Guard`).
+keeps ``success.min_clearance_m + process.plan_margin_m`` from the scene and ends on the goal line,
+``process.handover_m`` to ``process.approach_m`` out, heading along it (failing that, at the goal
+itself); a straight reverse along the line to the goal follows (the NMPC parks best from a straight
+approach, as after the paper's forward stage). The direction segments become stages, each tracked by
+a :class:`~hitchpark.control.path_tracking.PathTracker` between standstills; the reverse NMPC parks the
+last ``process.handover_m`` to the millimetre. Among obstacles every stage is guarded
+(:class:`~hitchpark.control.guard.Guard`).
 
-When a stage cannot go on (the car strayed from the path, a body came too close, the NMPC failed) or
-the path ends unparked among obstacles, the car stops and the process plans again from where it
-stands, at most ``process.max_replans`` times. A plan that finds nothing ends the maneuver as
-``no_path``, the car standing. In an empty scene the staged process (Fig. 7) takes over instead when
-no path is found or the NMPC ends the path unparked: it repositions forward along the goal line and
-reverses again, which parks from anywhere in open space.
+When the NMPC ends unparked near the goal, the car pulls forward straight along the goal line (as far
+as keeps clear) and reverses again. When a stage cannot go on (the car strayed from the path, a body
+came too close, the NMPC failed) or no correction is possible, the car stops and the process plans
+again from where it stands, at most ``process.max_replans`` times. A plan that finds nothing ends the
+maneuver as ``no_path``, the car standing. In an empty scene the staged process (Fig. 7) takes over
+instead: it repositions forward along the goal line and reverses again, which parks from anywhere in
+open space.
 """
 
 from __future__ import annotations

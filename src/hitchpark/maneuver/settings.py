@@ -69,9 +69,10 @@ class ProcessSettings:
         A planned maneuver plans again (from where the car stopped) at most this many times after the first
         plan: when the car strays from the path, comes too close to an obstacle, or ends a path unparked.
     approach_m : float
-        The path is planned to a point this far out along the goal line [m], heading along it; a
-        straight reverse along the line follows, to the goal (halved until it keeps clear of the scene).
-        The NMPC parks best from a straight approach, as after the paper's forward stage.
+        The path is planned to end on the goal line between ``handover_m`` and this far out [m], heading
+        along it, the hitch straight; a straight reverse along the line follows, to the goal (halved until
+        it keeps clear of the scene). The NMPC parks best from a straight approach, as after the paper's
+        forward stage.
     handover_m : float
         The last reverse segment is tracked until this much of it is left to the goal [m]; the NMPC
         parks the rest.
