@@ -34,7 +34,7 @@ from ..model.plant import Command, Measurement
 from ..model.state import Pose, wrap_angle
 from ..model.vehicle import VehicleTrailer
 from .nmpc import NMPCStep
-from .pure_pursuit import command_step, forward_steer_limit
+from .pure_pursuit import command_step, forward_steer_limit, pursuit_steer
 
 __all__ = ["PathTracker", "TrackingSettings", "direction_segments"]
 
@@ -182,14 +182,9 @@ class PathTracker:
         alpha = float(wrap_angle(math.atan2(py - y, px - x) - heading))
         v = self.vehicle
         if self.direction > 0:
-            if abs(alpha) > math.pi / 2:
-                return math.copysign(self.cap, alpha)
-            return float(np.clip(math.atan(2.0 * v.wheelbase * math.sin(alpha) / distance), -self.cap, self.cap))
-        limit = self.settings.virtual_limit
-        if abs(alpha) > math.pi / 2:
-            virtual = -math.copysign(limit, alpha)
-        else:
-            virtual = float(np.clip(math.atan(-2.0 * v.trailer_length * math.sin(alpha) / distance), -limit, limit))
+            return pursuit_steer(v.wheelbase, alpha, distance, self.cap)
+        # Driven backwards, a positive virtual steer turns the direction of travel the other way.
+        virtual = -pursuit_steer(v.trailer_length, alpha, distance, self.settings.virtual_limit)
         front = float(front_steer_from_virtual(v, float(state[3]), virtual))  # Eq. (45)
         return float(np.clip(front, -v.max_steer, v.max_steer))
 

@@ -34,6 +34,7 @@ __all__ = [
     "forward_done",
     "forward_steer_limit",
     "pure_pursuit_steer",
+    "pursuit_steer",
 ]
 
 
@@ -107,12 +108,20 @@ def pure_pursuit_steer(
     distance = math.hypot(dx, float(gy))
     alpha = float(wrap_angle(math.atan2(-gy, dx) - float(gyaw)))
     limit = forward_steer_limit(vehicle) if limit is None else limit
+    return pursuit_steer(vehicle.wheelbase, alpha, distance, limit)
+
+
+def pursuit_steer(length: float, alpha: float, distance: float, limit: float) -> float:
+    """The pure-pursuit law: atan(2 l sin(alpha) / l_d) within +-``limit`` [rad].
+
+    ``length``: from the steered axle to the one that pursues (the wheelbase; for the trailer in
+    reverse, L_T to its virtual axle at the hitch); ``alpha``: the bearing of the look-ahead point from
+    the heading of travel; ``distance``: to that point. A point behind (``|alpha| > pi/2``) gets full lock
+    towards it, where sin(alpha) would fade to zero and drive straight on.
+    """
     if abs(alpha) > math.pi / 2:
-        # The point is behind the vehicle (it faces away from the line's direction): full lock towards it,
-        # where sin(alpha) would fade to zero and drive straight on.
         return math.copysign(limit, alpha)
-    steer = math.atan(2.0 * vehicle.wheelbase * math.sin(alpha) / distance)
-    return float(np.clip(steer, -limit, limit))
+    return float(np.clip(math.atan(2.0 * length * math.sin(alpha) / distance), -limit, limit))
 
 
 def forward_done(goal: Pose, settings: PurePursuitSettings, state: np.ndarray) -> bool:

@@ -26,6 +26,7 @@ from collections.abc import Callable
 import casadi as ca
 import numpy as np
 
+from ...model.inverse import front_steer_from_virtual
 from ...model.kinematics import full_rhs
 from ...model.vehicle import VehicleTrailer
 
@@ -34,10 +35,8 @@ __all__ = ["GoalShot", "PrimitiveBatch", "commanded_steer"]
 
 def commanded_steer(vehicle: VehicleTrailer, hitch: ca.SX, command: ca.SX, direction: ca.SX | float) -> ca.SX:
     """The front steer commanded: ``command`` itself forward; Eq. (45) of the virtual steer in reverse."""
-    s, c, t = ca.sin(hitch), ca.cos(hitch), ca.tan(command)
-    L, L_H = vehicle.wheelbase, vehicle.hitch_offset
-    virtual = ca.atan(L / L_H * (s - c * t) / (c + s * t))  # Eq. (45)
-    limited = ca.fmin(ca.fmax(virtual, -vehicle.max_steer), vehicle.max_steer)
+    front = front_steer_from_virtual(vehicle, hitch, command)  # Eq. (45)
+    limited = ca.fmin(ca.fmax(front, -vehicle.max_steer), vehicle.max_steer)
     return ca.if_else(direction > 0, command, limited)
 
 
