@@ -124,7 +124,7 @@ class PlannedProcess:
             if self.scene.is_empty:
                 return self._fall_back(measurement, goal, ended)
         if self.rounds > self.settings.process.max_replans:
-            why = f"{ended.reason}: {ended.status}" if ended.failed else "the path ended unparked"
+            why = ended.reason if ended.failed else "the path ended unparked"
             return Ending(Outcome.NO_PATH, f"gave up after {self.rounds - 1} replans; last: {why}")
         return self._plan(measurement, goal)
 
