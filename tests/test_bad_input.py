@@ -171,7 +171,8 @@ FILE_CASES: list[tuple[str, str, str, str]] = [
     ("setting past its upper bound", START_TOML + "[forward]\nspeed = 50.0\n", "--scenario", "forward.speed"),
     ("noise past its bound", "hitch_noise_std_deg = 90.0\n", "--plant", "plant.hitch_noise_std_deg"),
     ("solver option CasADi refuses, in a file",
-     START_TOML + "[nmpc]\nkind = 'paper'\nsolver_options = {max_iter = 'x'}\n", "--scenario", "illegal type"),
+     START_TOML + "[nmpc]\nkind = 'paper'\nsolver = 'sqp'\nsolver_options = {max_iter = 'x'}\n", "--scenario",
+     "illegal type"),
     ("self-intersecting obstacle", START_TOML + "[[obstacles]]\npolygon = [[0, 0], [1, 1], [1, 0], [0, 1]]\n",
      "--scenario", "polygon"),
     ("start inside an obstacle", START_TOML + "[[obstacles]]\nname = 'shed'\n"
@@ -272,7 +273,8 @@ API_CASES: list[tuple[str, Callable[[], Any], str]] = [
     ("length of 1e308", lambda: hitchpark.VehicleTrailer(wheelbase=1e308), "wheelbase must be"),
     ("solver options of the wrong shape", lambda: NMPCSettings(solver_options={"tol": object()}),
      "solver_options.tol"),
-    ("solver option CasADi refuses", lambda: TrailerNMPC(V, NMPCSettings(kind="paper", solver_options={"qpsol": "x"})),
+    ("solver option CasADi refuses",
+     lambda: TrailerNMPC(V, NMPCSettings(kind="paper", solver="sqp", solver_options={"qpsol": "x"})),
      "not accepted by sqp: Plugin 'x' is not found"),
     ("plant of the wrong type", lambda: park(V, START, plant="ideal"), "plant must be a PlantSettings"),
 ]

@@ -13,7 +13,7 @@ from hitchpark.model.state import Pose, State
 
 @pytest.fixture
 def jit_cache(tmp_path, monkeypatch):
-    if compiled._compiler() is None:
+    if compiled.resolved_compiler() is None:
         pytest.skip("no C compiler on this machine")
     monkeypatch.setenv("HITCHPARK_JIT", "1")
     monkeypatch.setenv("HITCHPARK_CACHE", str(tmp_path / "cache"))
@@ -36,14 +36,14 @@ def test_compiled_matches_uncompiled_and_is_cached(jit_cache, monkeypatch):
     cache, work = jit_cache
     vehicle = VehicleTrailer()
     starts = [(8.0, 3.0, 0.5, 0.1), (12.0, -5.0, -1.0, -0.3), (5.0, 1.0, 0.2, 0.4)]
-    compiled_ctl = make_nmpc(vehicle, NMPCSettings(jit=True))
+    compiled_ctl = make_nmpc(vehicle, NMPCSettings(solver="fatrop", jit=True))
     entries = list(cache.iterdir())
     assert len(entries) == 1 and (entries[0] / "solver.casadi").is_file()
     assert list(entries[0].glob("*.so")), "the shared library is kept beside the solver"
     assert not list(entries[0].glob("*.c")) and not list(entries[0].glob("*.o"))
     assert list(work.iterdir()) == [], "nothing written into the working folder"
 
-    plain = make_nmpc(vehicle, NMPCSettings(jit=False))
+    plain = make_nmpc(vehicle, NMPCSettings(solver="fatrop", jit=False))
     for a, b in zip(_plans(compiled_ctl, starts), _plans(plain, starts), strict=True):
         assert a.ok and b.ok
         assert a.front_steer == pytest.approx(b.front_steer, abs=1e-7)
@@ -59,7 +59,7 @@ def test_compiled_matches_uncompiled_and_is_cached(jit_cache, monkeypatch):
         return real_nlpsol(name, plugin, nlp, options)
 
     monkeypatch.setattr(compiled.ca, "nlpsol", spy)
-    again = make_nmpc(vehicle, NMPCSettings(jit=True))
+    again = make_nmpc(vehicle, NMPCSettings(solver="fatrop", jit=True))
     assert True not in built, "compiled again although the cache holds this solver"
     assert again.solver is not compiled_ctl.solver
     assert _plans(again, starts[:1])[0].front_steer == pytest.approx(_plans(plain, starts[:1])[0].front_steer, abs=1e-7)
@@ -68,10 +68,10 @@ def test_compiled_matches_uncompiled_and_is_cached(jit_cache, monkeypatch):
 def test_a_broken_cache_entry_is_rebuilt(jit_cache):
     cache, _ = jit_cache
     vehicle = VehicleTrailer()
-    make_nmpc(vehicle, NMPCSettings(jit=True))
+    make_nmpc(vehicle, NMPCSettings(solver="fatrop", jit=True))
     (entry,) = cache.iterdir()
     (entry / "solver.casadi").write_text("cut short")
-    rebuilt = make_nmpc(vehicle, NMPCSettings(jit=True))
+    rebuilt = make_nmpc(vehicle, NMPCSettings(solver="fatrop", jit=True))
     assert _plans(rebuilt, [(8.0, 3.0, 0.5, 0.1)])[0].ok
     assert (entry / "solver.casadi").stat().st_size > 1000
 
@@ -80,11 +80,11 @@ def test_switched_off_or_without_compiler_runs_uncompiled(tmp_path, monkeypatch)
     monkeypatch.setenv("HITCHPARK_CACHE", str(tmp_path / "cache"))
     monkeypatch.setenv("HITCHPARK_JIT", "0")
     assert not compiled.jit_available()
-    assert make_nmpc(VehicleTrailer(), NMPCSettings(jit=True)).solver is not None
+    assert make_nmpc(VehicleTrailer(), NMPCSettings(solver="fatrop", jit=True)).solver is not None
     monkeypatch.setenv("HITCHPARK_JIT", "1")
     monkeypatch.setenv("CC", "no-such-compiler-hitchpark")
     assert not compiled.jit_available()
-    assert _plans(make_nmpc(VehicleTrailer(), NMPCSettings(jit=True)), [(8.0, 3.0, 0.5, 0.1)])[0].ok
+    assert _plans(make_nmpc(VehicleTrailer(), NMPCSettings(solver="fatrop", jit=True)), [(8.0, 3.0, 0.5, 0.1)])[0].ok
     assert not (tmp_path / "cache").exists()
 
 
@@ -98,7 +98,9 @@ def test_jit_setting_is_checked_and_resolved_per_kind():
 
 
 def _build_and_plan(_: int) -> bool:
-    return bool(_plans(make_nmpc(VehicleTrailer(), NMPCSettings(jit=True)), [(8.0, 3.0, 0.5, 0.1)])[0].ok)
+    return bool(
+        _plans(make_nmpc(VehicleTrailer(), NMPCSettings(solver="fatrop", jit=True)), [(8.0, 3.0, 0.5, 0.1)])[0].ok
+    )
 
 
 def test_a_pool_compiles_once(jit_cache):

@@ -93,8 +93,12 @@ def test_non_finite_or_jackknifed_measurements_are_refused(nmpc):
 
 def test_settings_per_kind_and_solver_options_in_equality():
     full, paper = NMPCSettings(), NMPCSettings(kind="paper")
-    assert (len(full.Q), len(full.R), full.solver) == (6, 2, "fatrop")
-    assert (len(paper.Q), paper.horizon, paper.solver) == (3, 10, "sqp")
+    assert (len(full.Q), len(full.R), full.solver) == (6, 2, "fatrop_c")
+    assert (len(paper.Q), paper.horizon, paper.solver) == (3, 10, "fatrop_c")
+    single = NMPCSettings(kind="paper", transcription="single_shooting")
+    assert single.solver == "sqp"  # fatrop needs the stages of multiple shooting
+    with pytest.raises(InputError, match=r"needs nmpc\.transcription 'multiple_shooting'"):
+        NMPCSettings(kind="paper", transcription="single_shooting", solver="fatrop_c")
     assert NMPCSettings(solver_options={"max_iter": 5}) != NMPCSettings()
     with pytest.raises(InputError, match=r"nmpc\.Q must be a list of 6"):
         NMPCSettings(Q=(1.0, 1.0, 1.0))

@@ -251,7 +251,7 @@ def test_bad_inputs_are_rejected():
 @pytest.mark.parametrize(
     ("nmpc", "plant"),
     [
-        (NMPCSettings(kind="paper", fallback_solver=None, solver_options={"max_iter": 0}), IDEAL),
+        (NMPCSettings(kind="paper", solver="sqp", fallback_solver=None, solver_options={"max_iter": 0}), IDEAL),
         (NMPCSettings(solver="ipopt", fallback_solver=None, solver_options={"ipopt.max_iter": 0}), None),
     ],
     ids=["paper", "full"],
@@ -366,7 +366,7 @@ def test_full_process_hands_a_failed_reverse_stage_over_to_the_forward_stage():
 
 @pytest.mark.parametrize(
     "changes",
-    [{"solver": "ipopt"}, {"transcription": "single_shooting"}],
+    [{"solver": "ipopt"}, {"transcription": "single_shooting", "solver": "sqp"}],
     ids=["ipopt", "single_shooting"],
 )
 def test_solver_and_transcription_do_not_change_the_maneuver(changes, scenarios, results):

@@ -26,20 +26,21 @@ from typing import Any
 
 import casadi as ca
 
-__all__ = ["cache_dir", "compiled_nlpsol", "jit_available"]
+__all__ = ["cache_dir", "cache_key", "compiled_nlpsol", "jit_available", "lock_file", "resolved_compiler"]
 
 #: Measured on the full OCP: -O1 compiles in ~4.5 s and runs as fast as -O2 (~8 s); -O0 runs 1.5x slower.
 FLAGS = ("-O1",)
 
 
-def _compiler() -> str | None:
+def resolved_compiler() -> str | None:
+    """The C compiler to use (``$CC``, else ``gcc``) as a path, or None if there is none."""
     name = os.environ.get("CC", "gcc")
     return shutil.which(name)
 
 
 def jit_available() -> bool:
     """Compilation is on (``HITCHPARK_JIT`` is not ``0``) and a C compiler is on the path."""
-    return os.environ.get("HITCHPARK_JIT", "1").strip() != "0" and _compiler() is not None
+    return os.environ.get("HITCHPARK_JIT", "1").strip() != "0" and resolved_compiler() is not None
 
 
 def cache_dir() -> Path:
@@ -50,10 +51,11 @@ def cache_dir() -> Path:
     return Path(base) / "hitchpark"
 
 
-def _key(plugin: str, nlp: Mapping[str, Any], options: Mapping[str, Any], compiler: str) -> str:
+def cache_key(plugin: str, nlp: Mapping[str, Any], options: Mapping[str, Any], compiler: str, kind: str = "") -> str:
+    """A key of everything that shapes a compiled solver: its expression graph, plugin, options, tools."""
     graph = ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]]).serialize()
     described = json.dumps([plugin, options, ca.CasadiMeta.version(), compiler, FLAGS], sort_keys=True, default=repr)
-    return hashlib.sha256((graph + described).encode()).hexdigest()[:24]
+    return hashlib.sha256((kind + graph + described).encode()).hexdigest()[:24]
 
 
 def compiled_nlpsol(name: str, plugin: str, nlp: Mapping[str, Any], options: Mapping[str, Any]) -> Any:
@@ -61,10 +63,10 @@ def compiled_nlpsol(name: str, plugin: str, nlp: Mapping[str, Any], options: Map
 
     Falls back to the uncompiled solver when no compiler is available or compiling fails.
     """
-    compiler = _compiler()
+    compiler = resolved_compiler()
     if compiler is None or not jit_available():
         return ca.nlpsol(name, plugin, dict(nlp), dict(options))
-    home = cache_dir() / f"{name}-{_key(plugin, nlp, options, compiler)}"
+    home = cache_dir() / f"{name}-{cache_key(plugin, nlp, options, compiler)}"
     try:
         home.mkdir(parents=True, exist_ok=True)
         lock = open(home / ".lock", "a")
@@ -72,7 +74,7 @@ def compiled_nlpsol(name: str, plugin: str, nlp: Mapping[str, Any], options: Map
         return ca.nlpsol(name, plugin, dict(nlp), dict(options))
     with lock:
         # One process compiles, the others of a pool wait here and then load what it saved.
-        _lock(lock)
+        lock_file(lock)
         solver = _load(home / "solver.casadi")
         if solver is None:
             solver = _compile(name, plugin, nlp, options, compiler, home)
@@ -81,7 +83,8 @@ def compiled_nlpsol(name: str, plugin: str, nlp: Mapping[str, Any], options: Map
     return solver if solver is not None else ca.nlpsol(name, plugin, dict(nlp), dict(options))
 
 
-def _lock(handle: Any) -> None:
+def lock_file(handle: Any) -> None:
+    """Hold an exclusive advisory lock on an open file until it is closed (where the system has them)."""
     try:
         import fcntl
 

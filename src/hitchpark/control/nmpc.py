@@ -26,10 +26,30 @@ from ..model.state import Pose, State, check_goal, to_goal_frame
 from ..model.vehicle import VehicleTrailer, check_vehicle
 from .full_ocp import SPEED, STEER, FullParkingProblem
 from .ocp import OCP, NMPCSettings, TrailerParkingProblem
-from .solvers import casadi_reason, make_solver
+from .solvers import ROUTES, casadi_reason, make_solver
 from .transcription import make_transcription
 
-__all__ = ["FullNMPC", "NMPCStep", "TrailerNMPC", "make_nmpc"]
+__all__ = ["FullNMPC", "NLPProblem", "NMPCStep", "TrailerNMPC", "make_nmpc"]
+
+
+@dataclass(frozen=True)
+class NLPProblem:
+    """One NMPC solve as the controller posed it to its primary solver: replayable through any route.
+
+    ``p`` is the initial state (the parameter), ``w0`` the warm start, the rest the bounds of the
+    decision vector and of the constraints, all in the transcription's layout.
+    """
+
+    p: np.ndarray
+    w0: np.ndarray
+    lbx: np.ndarray
+    ubx: np.ndarray
+    lbg: np.ndarray
+    ubg: np.ndarray
+
+    def inputs(self) -> dict[str, np.ndarray]:
+        """The keyword arguments of a CasADi ``nlpsol`` call."""
+        return {"x0": self.w0, "p": self.p, "lbx": self.lbx, "ubx": self.ubx, "lbg": self.lbg, "ubg": self.ubg}
 
 
 @dataclass(frozen=True)
@@ -92,9 +112,13 @@ class _RecedingHorizon:
         self.fallback = (
             make_solver(fallback, self.transcription.nlp, equality) if fallback and fallback != s.solver else None
         )
+        self._equality = equality
+        self._general: Any = None  # a route for problems that relax an equality (built when first needed)
         self._last_inputs: np.ndarray | None = None
         self._last_states: np.ndarray | None = None
         self._last_steer = 0.0
+        #: Set to a list to record every problem posed to the primary solver (``hitchpark bench``).
+        self.recorder: list[NLPProblem] | None = None
 
     def reset(self, front_steer: float = 0.0) -> None:
         """Forget the warm start (call at the start of each reverse stage)."""
@@ -130,13 +154,42 @@ class _RecedingHorizon:
             ok, status = False, "non-finite solution"
         return ok, status, w, cost
 
+    def _general_solver(self) -> Any:
+        """The primary route, or a general one if the primary needs every equality of the transcription kept.
+
+        A stage's free-steer problem (:meth:`FullNMPC.initial_steer`, once per stage, standing still) frees
+        the equality X_0[steer] = p[steer]; a structure-exploiting route such as fatrop cannot take that.
+        """
+        assert self.settings.solver is not None
+        if not ROUTES[self.settings.solver].structured:
+            return self.solver
+        if self._general is None:
+            general = self.settings.fallback_solver
+            if general is None or ROUTES[general].structured:
+                general = "ipopt"
+            self._general = self.fallback if general == self.settings.fallback_solver and self.fallback else None
+            if self._general is None:
+                self._general = make_solver(general, self.transcription.nlp, self._equality)
+        return self._general
+
     def _solve_cascade(
-        self, x0: np.ndarray, u_min: np.ndarray, u_max: np.ndarray, bounds: tuple[np.ndarray, ...]
+        self,
+        x0: np.ndarray,
+        u_min: np.ndarray,
+        u_max: np.ndarray,
+        bounds: tuple[np.ndarray, ...],
+        relaxed: bool = False,
     ) -> tuple[bool, str, np.ndarray, np.ndarray, float, float]:
-        """Primary solver, then the fallback, then a cold start; returns ok, status, states, inputs, cost, ms."""
+        """Primary solver, then the fallback, then a cold start; returns ok, status, states, inputs, cost, ms.
+
+        ``relaxed``: the bounds free an equality of the transcription (see :meth:`_general_solver`).
+        """
         t0 = time.perf_counter()
         warm = self._initial_guess(x0, u_min, u_max)
-        ok, status, w, cost = self._solve(self.solver, x0, warm, bounds)
+        primary = self._general_solver() if relaxed else self.solver
+        if self.recorder is not None and primary is self.solver:
+            self.recorder.append(NLPProblem(*(np.array(a, dtype=float) for a in (x0, warm, *bounds))))
+        ok, status, w, cost = self._solve(primary, x0, warm, bounds)
         if not ok and self.fallback is not None:
             # The fast primary solver can stall where the interior-point fallback does not.
             ok, status, w, cost = self._solve(self.fallback, x0, warm, bounds)
@@ -288,7 +341,7 @@ class FullNMPC(_RecedingHorizon):
         u_min, u_max = self.problem.input_bounds()
         free = {STEER: (-v.max_steer, v.max_steer)} if free_steer else None
         ok, status, states, inputs, cost, solve_ms = self._solve_cascade(
-            x0, u_min, u_max, self.transcription.bounds(u_min, u_max, free)
+            x0, u_min, u_max, self.transcription.bounds(u_min, u_max, free), relaxed=free_steer
         )
         if not ok:
             return self._stop(status, cost, solve_ms, states, inputs)

@@ -65,6 +65,9 @@ def _solver_options(value: Any, name: str = "nmpc.solver_options") -> dict[str, 
 #: Kinds of NMPC: the paper's trailer-only OCP (Eqs. 47-57) and the full-model OCP (:mod:`.full_ocp`).
 NMPC_KINDS = ("full", "paper")
 
+#: The route of a kind whose own needs stages, when the transcription is single shooting.
+SINGLE_SHOOTING_SOLVER = "sqp"
+
 #: Per kind: horizon and the diagonals of Q (stage), R (input), P (terminal); sizes are the kind's states/inputs.
 KIND_DEFAULTS: dict[str, dict[str, Any]] = {
     # Table 4.
@@ -73,14 +76,14 @@ KIND_DEFAULTS: dict[str, dict[str, Any]] = {
         "Q": (1.0, 10.0, 10.0),
         "R": (0.0, 0.1),
         "P": (1.0, 10.0, 10.0),
-        "solver": "sqp",
+        "solver": "fatrop_c",
         "jit": False,
     },
     # (x, y, yaw, hitch, steer, speed), (steer rate, acceleration); chosen by measured success (README).
     "full": {
         "horizon": 10,
         "prediction_dt": 0.3,
-        "solver": "fatrop",
+        "solver": "fatrop_c",
         "jit": True,
         "Q": (1.0, 10.0, 10.0, 0.5, 0.01, 0.01),
         "R": (0.05, 0.05),
@@ -128,9 +131,11 @@ class NMPCSettings:
     max_steps : int
         A reverse stage that has not stopped after this many steps ends as stalled.
     solver : str or None
-        A registered solver (:mod:`.solvers`): ``"sqp"`` (CasADi sqpmethod with the qrqp QP solver, exact
-        Hessian; the paper kind's default), ``"fatrop"`` (structure-exploiting interior point; the full
-        kind's default) or ``"ipopt"`` (interior point). None: the kind's.
+        A registered route (:mod:`.solvers`, compared by ``hitchpark bench``): ``"fatrop_c"`` (fatrop, the
+        structure-exploiting interior point, generated to C with the OCP and compiled; both kinds'
+        default), ``"fatrop"`` (the same in-process), ``"sqp"`` (CasADi sqpmethod with the qrqp QP
+        solver, exact Hessian), ``"sqp_c"``, ``"sqp_bfgs"`` or ``"ipopt"`` (interior point, the
+        reference). None: the kind's (``"sqp"`` with single shooting, which has no stages).
     fallback_solver : str or None
         Solver tried when the first one fails; only if both fail, and a retry from a cold start fails
         too, does the step command a stop.
@@ -165,7 +170,7 @@ class NMPCSettings:
     jit: bool | None = None
 
     def __post_init__(self) -> None:
-        from .solvers import solver_names
+        from .solvers import ROUTES, solver_names
 
         def put(name: str, value: Any) -> None:
             object.__setattr__(self, name, value)
@@ -190,18 +195,32 @@ class NMPCSettings:
         put("virtual_limit", lim)
         put("hitch_margin", check_range("nmpc.hitch_margin", self.hitch_margin, 0.0, math.radians(30.0), unit="rad"))
         put("stop_speed", check_range("nmpc.stop_speed", self.stop_speed, 0.0, 0.1, low_open=True, unit="m/s"))
+        if self.transcription not in ("multiple_shooting", "single_shooting"):
+            raise InputError(
+                f"nmpc.transcription must be 'multiple_shooting' or 'single_shooting', got {self.transcription!r}"
+            )
         names = solver_names()
-        if self.solver is None:
-            put("solver", defaults["solver"])
-        if self.solver not in names:
+        if self.solver is not None and self.solver not in names:
             raise InputError(f"nmpc.solver must be one of {', '.join(names)}, got {self.solver!r}")
+        single = self.transcription == "single_shooting"
+        if self.solver is None:  # the kind's route, or the one for single shooting if that has no stages
+            put(
+                "solver",
+                SINGLE_SHOOTING_SOLVER if single and ROUTES[defaults["solver"]].structured else defaults["solver"],
+            )
+        elif single and ROUTES[self.solver].structured:
+            raise InputError(
+                f"nmpc.solver {self.solver!r} needs nmpc.transcription 'multiple_shooting' (it exploits the "
+                f"stage structure), got 'single_shooting'"
+            )
         if self.fallback_solver is not None and self.fallback_solver not in names:
             raise InputError(
                 f"nmpc.fallback_solver must be one of {', '.join(names)} or none, got {self.fallback_solver!r}"
             )
-        if self.transcription not in ("multiple_shooting", "single_shooting"):
+        if single and self.fallback_solver is not None and ROUTES[self.fallback_solver].structured:
             raise InputError(
-                f"nmpc.transcription must be 'multiple_shooting' or 'single_shooting', got {self.transcription!r}"
+                f"nmpc.fallback_solver {self.fallback_solver!r} needs nmpc.transcription 'multiple_shooting', "
+                "got 'single_shooting'"
             )
         put("jit", check_flag("nmpc.jit", defaults["jit"] if self.jit is None else self.jit))
         put("solver_options", _solver_options(self.solver_options))

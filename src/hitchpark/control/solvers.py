@@ -1,7 +1,9 @@
-"""Solvers as a registry: a name -> a function that builds a CasADi ``nlpsol`` for a transcription.
+"""Solvers as a registry of named routes over one transcription of an OCP.
 
-Add a route with :func:`register_solver`; settings name solvers by these keys, and the
-controller builds them here, never by checking names itself.
+A route is a CasADi NLP plugin with its options, built either in-process (its functions compiled
+to C when ``jit``) or as the whole solver generated to C and compiled (:mod:`.generated`). Add one
+with :func:`register_solver`; settings name routes by these keys, the controller builds them here
+and ``hitchpark bench`` compares them on recorded problems, never by checking names themselves.
 """
 
 from __future__ import annotations
@@ -12,25 +14,62 @@ import sys
 import tempfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
 
 from .compiled import compiled_nlpsol
+from .generated import generated_nlpsol
 
-__all__ = ["SOLVERS", "casadi_reason", "make_solver", "quiet_stderr", "register_solver", "solver_names"]
+__all__ = [
+    "ROUTES",
+    "SOLVERS",
+    "Route",
+    "casadi_reason",
+    "make_solver",
+    "quiet_stderr",
+    "register_solver",
+    "solver_names",
+]
 
-#: ``name -> factory(equality) -> (CasADi plugin, default options)``; ``equality`` flags the constraints that
+#: ``factory(equality) -> (CasADi plugin, default options)``; ``equality`` flags the constraints that
 #: are equalities (structure-exploiting solvers need it). The user's ``solver_options`` go on top.
 SolverFactory = Callable[[Sequence[bool]], tuple[str, dict[str, Any]]]
 
+
+@dataclass(frozen=True)
+class Route:
+    """A named way to solve the NLP: the plugin and options, and whether the whole solver is generated C."""
+
+    name: str
+    factory: SolverFactory
+    generated: bool = False
+    structured: bool = False  # exploits the stages of multiple shooting: single shooting has none
+
+    @property
+    def summary(self) -> str:
+        """The first line of the factory's docstring."""
+        return (self.factory.__doc__ or self.name).strip().splitlines()[0]
+
+
+ROUTES: dict[str, Route] = {}
+
+#: ``name -> factory``, the plugin and options of each route (kept for callers of the first registry).
 SOLVERS: dict[str, SolverFactory] = {}
 
 
-def register_solver(name: str) -> Callable[[SolverFactory], SolverFactory]:
-    """Decorator: register a factory returning ``(plugin, default options)`` under ``name``."""
+def register_solver(
+    name: str, generated: bool = False, structured: bool = False
+) -> Callable[[SolverFactory], SolverFactory]:
+    """Decorator: register a factory returning ``(plugin, default options)`` under ``name``.
+
+    ``generated``: the route is the whole solver as compiled C (in-process where nothing compiles).
+    ``structured``: it needs the stage structure of the multiple-shooting transcription.
+    """
 
     def put(factory: SolverFactory) -> SolverFactory:
+        ROUTES[name] = Route(name, factory, generated, structured)
         SOLVERS[name] = factory
         return factory
 
@@ -38,7 +77,7 @@ def register_solver(name: str) -> Callable[[SolverFactory], SolverFactory]:
 
 
 def solver_names() -> tuple[str, ...]:
-    return tuple(SOLVERS)
+    return tuple(ROUTES)
 
 
 @register_solver("ipopt")
@@ -134,17 +173,21 @@ def make_solver(
 ) -> Any:
     """A CasADi ``nlpsol`` of the registered solver ``name`` for ``nlp``, its defaults under ``options``.
 
-    ``jit``: compile the NLP's functions to C and cache the solver on disk (:mod:`.compiled`).
+    ``jit``: compile the NLP's functions to C and cache the solver on disk (:mod:`.compiled`). A generated
+    route is compiled whole whatever ``jit`` says (:mod:`.generated`).
     """
-    plugin, opts = SOLVERS[name](equality)
+    route = ROUTES[name]
+    plugin, opts = route.factory(equality)
     opts.update(options or {})
     with quiet_stderr():
+        if route.generated:
+            return generated_nlpsol(f"hitchpark_{name}", plugin, nlp, opts)
         if jit:
             return compiled_nlpsol(f"nmpc_{name}", plugin, nlp, opts)
         return ca.nlpsol(f"nmpc_{name}", plugin, dict(nlp), opts)
 
 
-@register_solver("fatrop")
+@register_solver("fatrop", structured=True)
 def _fatrop(equality: Sequence[bool]) -> tuple[str, dict[str, Any]]:
     """fatrop: an interior-point method that exploits the stage structure of an OCP (multiple shooting)."""
     return "fatrop", {
@@ -160,3 +203,22 @@ def _fatrop(equality: Sequence[bool]) -> tuple[str, dict[str, Any]]:
         # no warm_start_init_point: given, the first call of each solver raised and IPOPT stood in.)
         "fatrop.bound_push": 1e-9,
     }
+
+
+@register_solver("fatrop_c", generated=True, structured=True)
+def _fatrop_c(equality: Sequence[bool]) -> tuple[str, dict[str, Any]]:
+    """fatrop generated to C with the OCP and compiled, called through ctypes: no CasADi layer per call."""
+    return _fatrop(equality)
+
+
+@register_solver("sqp_c", generated=True)
+def _sqp_c(equality: Sequence[bool]) -> tuple[str, dict[str, Any]]:
+    """The sqp route (sqpmethod, qrqp, exact eigenvalue-clipped Hessian) generated to C and compiled."""
+    return _sqp(equality)
+
+
+@register_solver("sqp_bfgs")
+def _sqp_bfgs(equality: Sequence[bool]) -> tuple[str, dict[str, Any]]:
+    """sqpmethod with qrqp and a limited-memory BFGS Hessian: no second derivatives."""
+    plugin, options = _sqp(equality)
+    return plugin, {**options, "hessian_approximation": "limited-memory", "max_iter": 200}

@@ -1,0 +1,156 @@
+"""Solver routes: every route reaches the same optimum on recorded closed-loop problems; generated C is
+the same solver, cached, and reports its failures."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from hitchpark import VehicleTrailer
+from hitchpark.control import NMPCSettings, TrailerNMPC, compiled, make_nmpc
+from hitchpark.control.generated import GeneratedNLP
+from hitchpark.control.nmpc import NLPProblem
+from hitchpark.control.solvers import ROUTES, make_solver
+from hitchpark.maneuver import builtin_scenarios, park
+
+
+def _recorded(kind: str, scenario: int, every: int) -> tuple[object, list[NLPProblem]]:
+    sc = builtin_scenarios()[scenario]
+    settings = replace(sc.settings, nmpc=NMPCSettings(kind=kind))
+    controller = make_nmpc(sc.vehicle, settings.nmpc)
+    controller.recorder = []
+    result = park(sc.vehicle, sc.start, sc.goal, settings, controller=controller, plant=sc.plant)
+    assert result.success
+    return controller, controller.recorder[::every]
+
+
+@pytest.fixture(scope="module")
+def paper_problems():
+    return _recorded("paper", 0, 10)
+
+
+@pytest.fixture(scope="module")
+def full_problems():
+    return _recorded("full", 2, 5)
+
+
+def _solve_all(solver, problems):
+    out = []
+    for problem in problems:
+        answer = solver(**problem.inputs())
+        out.append((solver.stats()["success"], np.asarray(answer["x"]).ravel(), float(answer["f"])))
+    return out
+
+
+@pytest.mark.parametrize("route", sorted(ROUTES))
+@pytest.mark.parametrize("ocp", ["paper", "full"])
+def test_every_route_reaches_the_reference_optimum(route, ocp, paper_problems, full_problems):
+    controller, problems = paper_problems if ocp == "paper" else full_problems
+    assert len(problems) >= 10
+    tr = controller.transcription
+    equality = list(tr.lbg == tr.ubg)
+    reference = _solve_all(make_solver("ipopt", tr.nlp, equality), problems)
+    got = _solve_all(make_solver(route, tr.nlp, equality), problems)
+    for problem, (ok, w, f), (ok_ref, w_ref, f_ref) in zip(problems, got, reference, strict=True):
+        assert ok and ok_ref, f"{route} failed on a recorded {ocp} problem"
+        assert f == pytest.approx(f_ref, rel=1e-5, abs=1e-9)
+        first = tr.unpack(w, problem.p)[1][0]  # the move the car is given
+        np.testing.assert_allclose(first, tr.unpack(w_ref, problem.p)[1][0], atol=1e-5)
+
+
+def test_a_structured_route_hands_the_free_steer_problem_to_a_general_one():
+    """The free-steer problem of a stage start relaxes X_0[steer] = p[steer]: fatrop cannot take that, so it
+    goes to a general route, even with no fallback."""
+    sc = builtin_scenarios()[2]
+    controller = make_nmpc(sc.vehicle, NMPCSettings(solver="fatrop", fallback_solver=None))
+    from hitchpark.model.plant import Measurement
+    from hitchpark.model.state import Pose, State
+
+    m = Measurement(0.0, State(6.0, 1.0, 0.3, 0.1), 0.0, 0.0)
+    steer = controller.initial_steer(m, Pose())
+    assert controller._general is not None and controller._general is not controller.solver
+    assert steer is not None and abs(steer) <= sc.vehicle.max_steer
+    assert abs(steer) > 1e-3  # a start off the axis asks for the wheels turned
+
+
+@pytest.fixture
+def jit_cache(tmp_path, monkeypatch):
+    if compiled.resolved_compiler() is None:
+        pytest.skip("no C compiler on this machine")
+    monkeypatch.setenv("HITCHPARK_JIT", "1")
+    monkeypatch.setenv("HITCHPARK_CACHE", str(tmp_path / "cache"))
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    return tmp_path / "cache", work
+
+
+def test_generated_c_is_the_same_solver_cached_and_leaves_nothing_behind(jit_cache, paper_problems, monkeypatch):
+    cache, work = jit_cache
+    controller, problems = paper_problems
+    tr = controller.transcription
+    equality = list(tr.lbg == tr.ubg)
+    generated = make_solver("fatrop_c", tr.nlp, equality)
+    assert isinstance(generated, GeneratedNLP)
+    (entry,) = cache.iterdir()
+    assert [p.suffix for p in entry.iterdir() if not p.name.startswith(".")] == [".so"]
+    assert list(work.iterdir()) == [], "nothing written into the working folder"
+    in_process = make_solver("fatrop", tr.nlp, equality)
+    for (ok, w, f), (ok_ref, w_ref, f_ref) in zip(
+        _solve_all(generated, problems), _solve_all(in_process, problems), strict=True
+    ):
+        assert ok and ok_ref
+        assert f == pytest.approx(f_ref, rel=1e-9, abs=1e-12)
+        np.testing.assert_allclose(w, w_ref, atol=1e-8)
+
+    # A second solver of the same problem loads the library instead of compiling it.
+    def refuse(*args, **kwargs):
+        raise AssertionError("compiled again although the cache holds this solver")
+
+    monkeypatch.setattr(subprocess, "run", refuse)
+    again = make_solver("fatrop_c", tr.nlp, equality)
+    assert isinstance(again, GeneratedNLP) and again is not generated
+    assert _solve_all(again, problems[:1])[0][2] == pytest.approx(_solve_all(in_process, problems[:1])[0][2])
+
+
+def test_generated_c_reports_a_failure_and_the_controller_stops(jit_cache):
+    nmpc = TrailerNMPC(
+        VehicleTrailer(),
+        NMPCSettings(kind="paper", solver="fatrop_c", fallback_solver=None, solver_options={"fatrop.max_iter": 1}),
+    )
+    assert isinstance(nmpc.solver, GeneratedNLP)
+    u = nmpc.step(10.0, 3.5, 0.0, math.radians(10.0))
+    assert nmpc.solver.stats()["success"] is False
+    assert u.ok is False and u.stop is True and "not converged" in u.status
+    assert u.rear_speed == 0.0 and math.isfinite(u.front_steer)
+
+
+def test_generated_c_falls_back_to_the_fallback_solver(jit_cache):
+    nmpc = TrailerNMPC(
+        VehicleTrailer(),
+        NMPCSettings(kind="paper", solver="fatrop_c", fallback_solver="ipopt", solver_options={"fatrop.max_iter": 1}),
+    )
+    u = nmpc.step(10.0, 3.5, 0.0, 0.0)
+    assert nmpc.solver.stats()["success"] is False
+    assert u.ok and not u.stop and u.trailer_speed < 0.0
+
+
+def test_generated_route_runs_in_process_where_nothing_compiles(tmp_path, monkeypatch):
+    monkeypatch.setenv("HITCHPARK_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("HITCHPARK_JIT", "0")
+    nmpc = TrailerNMPC(VehicleTrailer(), NMPCSettings(kind="paper", solver="fatrop_c"))
+    assert not isinstance(nmpc.solver, GeneratedNLP)
+    assert nmpc.step(10.0, 3.5, 0.0, 0.0).ok
+    assert not (tmp_path / "cache").exists()
+
+
+def test_unknown_input_to_a_generated_solver_is_refused(jit_cache, paper_problems):
+    controller, _ = paper_problems
+    tr = controller.transcription
+    solver = make_solver("fatrop_c", tr.nlp, list(tr.lbg == tr.ubg))
+    with pytest.raises(RuntimeError, match="unknown solver inputs"):
+        solver(x_guess=np.zeros(3))
