@@ -57,9 +57,10 @@ def test_every_route_reaches_the_reference_optimum(route, ocp, paper_problems, f
     got = _solve_all(make_solver(route, tr.nlp, equality), problems)
     for problem, (ok, w, f), (ok_ref, w_ref, f_ref) in zip(problems, got, reference, strict=True):
         assert ok and ok_ref, f"{route} failed on a recorded {ocp} problem"
+        # Within the routes' tolerances (fatrop stops at 1e-6, IPOPT at 1e-9): the same optimum.
         assert f == pytest.approx(f_ref, rel=1e-5, abs=1e-9)
         first = tr.unpack(w, problem.p)[1][0]  # the move the car is given
-        np.testing.assert_allclose(first, tr.unpack(w_ref, problem.p)[1][0], atol=1e-5)
+        np.testing.assert_allclose(first, tr.unpack(w_ref, problem.p)[1][0], atol=2e-4)
 
 
 def test_a_structured_route_hands_the_free_steer_problem_to_a_general_one():

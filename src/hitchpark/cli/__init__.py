@@ -22,6 +22,7 @@ from .arguments import (
     vehicle_from_args,
 )
 from .commands import IK_STUDY_FILES, _cmd_ik_study, _cmd_park, _cmd_plot, _cmd_reproduce, _cmd_simulate, _cmd_sweep
+from .speed import add_speed_commands
 
 __all__ = [
     "EXIT_BAD_INPUT",
@@ -166,6 +167,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="SUMMARY.json", help="write the summary here")
     p.add_argument("--map", metavar="FILE.png", help="draw the outcome over the start positions")
     p.set_defaults(func=_cmd_sweep)
+    add_speed_commands(sub)
     return parser
 
 

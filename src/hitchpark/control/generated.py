@@ -108,7 +108,7 @@ def generated_nlpsol(name: str, plugin: str, nlp: Mapping[str, Any], options: Ma
     if compiler is None or not jit_available() or plugin not in _LINKED:
         return ca.nlpsol(name, plugin, dict(nlp), dict(options))
     sizes = (int(nlp["x"].numel()), int(nlp["p"].numel()), int(nlp["g"].numel()))
-    home = cache_dir() / f"{name}-c-{cache_key(plugin, nlp, options, compiler, kind='generated')}"
+    home = cache_dir() / f"{name}-c-{cache_key(plugin, nlp, options, compiler, kind=f'generated-{MAX_INSTANCES}')}"
     library = home / f"{name}.so"
     try:
         home.mkdir(parents=True, exist_ok=True)

@@ -80,6 +80,12 @@ class NMPCStep:
         return Command(self.rear_speed, self.front_steer)
 
 
+def _shifted(rows: np.ndarray, part: float) -> np.ndarray:
+    """``rows`` (one per step) advanced by ``part`` of a step (0 < part <= 1), linearly, the last row held."""
+    ahead = np.vstack([rows[1:], rows[-1:]])
+    return ahead if part >= 1.0 else (1.0 - part) * rows + part * ahead
+
+
 def _settings(vehicle: Any, settings: Any, kind: str) -> NMPCSettings:
     """Check a controller's arguments; ``settings`` None: the ``kind``'s defaults."""
     check_vehicle(vehicle)
@@ -133,9 +139,12 @@ class _RecedingHorizon:
         if self._last_inputs is None:
             inputs, states = self._cold_inputs(), None
         else:
-            inputs = np.vstack([self._last_inputs[1:], self._last_inputs[-1:]])  # shifted previous solution
-            assert self._last_states is not None
-            states = np.vstack([self._last_states[1:], self._last_states[-1:]])
+            # The previous solution moved on by one control sample: a whole prediction step when they are
+            # equal, else the fraction dt / prediction_dt of one (interpolated), the last step repeated.
+            assert self._last_states is not None and self.settings.prediction_dt is not None
+            part = self.settings.dt / self.settings.prediction_dt
+            inputs = _shifted(self._last_inputs, part)
+            states = _shifted(self._last_states, part)
         inputs = np.clip(inputs, u_min, u_max)
         return self.transcription.guess(x0, inputs, states)
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -46,7 +46,21 @@ from .result import (
 from .settings import ManeuverSettings
 from .stages import Ending, Process, Stage, StagedProcess, StageEnd, make_stages
 
-__all__ = ["SETTLE_TOLERANCE", "park"]
+__all__ = ["SETTLE_TOLERANCE", "Clock", "park"]
+
+
+class Clock(Protocol):
+    """Paces the loop: ``tick`` as each command is ready, right before the plant applies it.
+
+    The work of a tick runs from the previous tick (or ``restart``) to this one: sense, the
+    controller's step, the guard. ``restart`` is called when the process has decided what comes
+    next, standing still (planning is not the work of a tick). ``hitchpark realtime`` passes a
+    clock that holds each tick to a wall-clock period and counts the ticks whose work overran it.
+    """
+
+    def tick(self) -> None: ...
+
+    def restart(self) -> None: ...
 
 #: A stage starts moving once the actual steer is this close to the steer it asked for [rad].
 SETTLE_TOLERANCE = math.radians(0.5)
@@ -71,6 +85,7 @@ class _Loop:
     last: Command = field(default_factory=lambda: Command(0.0, 0.0))
     outcome: Outcome | None = None
     detail: str = ""
+    clock: Clock | None = None
 
     def in_flight(self) -> tuple[Command, ...]:
         """The commands issued but not yet acted on: the known delay."""
@@ -96,6 +111,8 @@ class _Loop:
             command.rear_speed, float(np.clip(command.front_steer, -vehicle.max_steer, vehicle.max_steer))
         )
         before = self.plant.state.as_array()
+        if self.clock is not None:
+            self.clock.tick()
         acting = self.plant.apply(command)
         if acting is None:
             self.outcome = Outcome.JACKKNIFE
@@ -243,6 +260,7 @@ def park(
     controller: TrailerNMPC | FullNMPC | None = None,
     plant: PlantSettings | None = None,
     scene: Scene | None = None,
+    clock: Clock | None = None,
 ) -> ManeuverResult:
     """Park the trailer at ``goal`` from ``start``: reverse, and forward and reverse again as needed (Fig. 7).
 
@@ -266,6 +284,8 @@ def park(
         Obstacles and an area, world frame (default: none). The planned process avoids them; the staged
         one does not see them. Checked on the true motion at the end, against
         ``settings.success.min_clearance_m`` (outcome ``collision`` if closer).
+    clock : Clock, optional
+        Paces the loop (``hitchpark realtime``: a wall-clock tick); default: as fast as it runs.
 
     Returns
     -------
@@ -283,6 +303,8 @@ def park(
     check_text("name", name, max_length=200)
     scene = Scene() if scene is None else scene
     check_instance("scene", scene, Scene, "hitchpark.model.Scene(obstacles, area)")
+    if clock is not None and not all(callable(getattr(clock, m, None)) for m in ("tick", "restart")):
+        raise InputError(f"clock must have tick() and restart() methods, got {type(clock).__name__}")
     if controller is not None:
         check_instance("controller", controller, (TrailerNMPC, FullNMPC))
     if controller is not None and (controller.vehicle, controller.settings) != (vehicle, settings.nmpc):
@@ -296,10 +318,13 @@ def park(
         crit.max_time,
         vehicle.max_steer_rate,
         vehicle.max_accel,
+        clock=clock,
     )
     process = make_process(vehicle, settings, scene, controller, plant.delay_steps)
     stages: list[StageResult] = []
     next_stage = process.first(car.sense(), goal)
+    if clock is not None:
+        clock.restart()
     while not isinstance(next_stage, Ending):
         stage = next_stage
         index, first = len(stages), len(loop.states)
@@ -322,6 +347,8 @@ def park(
         if loop.outcome is not None:
             break
         verdict = process.next(car.sense(), goal, ended) if ended.failed else None
+        if clock is not None:
+            clock.restart()
         if isinstance(verdict, Ending):
             next_stage = verdict
             break
@@ -330,6 +357,8 @@ def park(
             loop.outcome = Outcome.PARKED
             break
         next_stage = verdict if verdict is not None else process.next(car.sense(), goal, ended)
+        if clock is not None:
+            clock.restart()
         if (
             not isinstance(next_stage, Ending)
             and next_stage.kind != stage.kind

@@ -1,0 +1,261 @@
+"""``hitchpark bench``: the solver routes side by side on recorded closed-loop NMPC problems.
+
+For each OCP (:data:`BENCH_OCPS`) the default controller drives a set of closed-loop starts and
+records every problem it poses (:class:`~hitchpark.control.nmpc.NLPProblem`). Every registered
+route then solves the same problems, in one run, and is timed call by call: the whole call from
+Python (wall clock, and the process's CPU time beside it), failures (a call that would have needed
+the fallback), and how far its first move lies from IPOPT's. For the paper's OCP each route also
+drives the four paper scenarios, and for each OCP the default route is timed at N = 10, 20, 40, 80.
+Speeds are ratios to the ``ipopt`` route measured in the same run: machines are noisy.
+"""
+
+from __future__ import annotations
+
+import gc
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from ..checks import InputError, check_int
+from ..control.nmpc import FullNMPC, NLPProblem, TrailerNMPC, make_nmpc
+from ..control.ocp import NMPCSettings
+from ..control.solvers import ROUTES, make_solver, quiet_stderr
+from ..maneuver import ManeuverSettings, builtin_scenarios, park
+from ..maneuver.settings import ProcessSettings
+from ..model.plant import PlantSettings
+from ..model.state import Pose, State
+from ..model.vehicle import VehicleTrailer
+from .sweep import DEFAULT_REGION, draw_starts
+
+__all__ = ["BENCH_OCPS", "HORIZONS", "BenchOCP", "OCPBench", "RouteBench", "bench_table", "run_bench"]
+
+#: Horizons of the scaling test.
+HORIZONS = (10, 20, 40, 80)
+
+#: Seed of the starts drawn from the usual region beside the paper's four scenarios.
+START_SEED = 2025
+
+
+@dataclass(frozen=True)
+class BenchOCP:
+    """An OCP to bench: its NMPC settings and the plant and process its closed loops run on."""
+
+    name: str
+    nmpc: NMPCSettings
+    plant: PlantSettings
+    process: ProcessSettings = field(default_factory=ProcessSettings)
+
+    def settings(self, horizon: int | None = None) -> ManeuverSettings:
+        nmpc = self.nmpc if horizon is None else replace(self.nmpc, horizon=horizon)
+        return ManeuverSettings(nmpc=nmpc, process=self.process)
+
+
+#: The OCPs ``bench`` knows: the paper's (its 3-stage process on the ideal car) and the full model's (the
+#: default process on the realistic car). The obstacle OCP is not built yet: obstacles are checked by the
+#: guard outside the NMPC (README, "Obstacles").
+BENCH_OCPS: dict[str, BenchOCP] = {
+    "paper": BenchOCP("paper", NMPCSettings(kind="paper"), PlantSettings(kind="ideal"), ProcessSettings(kind="staged")),
+    "full": BenchOCP("full", NMPCSettings(kind="full"), PlantSettings()),
+}
+
+
+@dataclass(frozen=True)
+class RouteBench:
+    """One route on one OCP's recorded problems (times in ms, per call)."""
+
+    median_ms: float
+    p99_ms: float
+    max_ms: float
+    cpu_median_ms: float
+    failures: int
+    calls: int
+    speedup_vs_ipopt: float
+    max_move_diff: float  # largest |first move - IPOPT's| over the problems both solved (input units)
+    final_errors: dict[str, dict[str, float]] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "final_errors"}
+        if math.isnan(self.max_move_diff):  # no problem solved by both
+            out["max_move_diff"] = None
+        if self.final_errors:
+            out["final_errors"] = self.final_errors
+        return out
+
+
+@dataclass(frozen=True)
+class OCPBench:
+    """All routes on one OCP, the default route and its horizon scaling."""
+
+    routes: dict[str, RouteBench]
+    default: str
+    horizon_scaling_ms: dict[str, float]
+    problems: int
+    starts: int
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "routes": {name: r.to_dict() for name, r in self.routes.items()},
+            "default": self.default,
+            "horizon_scaling_ms": dict(self.horizon_scaling_ms),
+            "problems": self.problems,
+            "starts": self.starts,
+        }
+
+
+def _starts(n: int) -> list[tuple[str, State, Pose]]:
+    """The paper's four scenarios' starts, then starts drawn from the usual region, ``n`` in all."""
+    out = [(sc.name, sc.start, sc.goal) for sc in builtin_scenarios()][:n]
+    if n > len(out):
+        drawn = draw_starts(START_SEED, n - len(out), DEFAULT_REGION)
+        out += [(f"start {i}", s.state(), Pose()) for i, s in enumerate(drawn)]
+    return out
+
+
+def record_problems(
+    ocp: BenchOCP, vehicle: VehicleTrailer, starts: Sequence[tuple[str, State, Pose]], horizon: int | None = None
+) -> list[NLPProblem]:
+    """Every problem the default controller of ``ocp`` poses while parking from ``starts``."""
+    settings = ocp.settings(horizon)
+    controller = make_nmpc(vehicle, settings.nmpc)
+    controller.recorder = []
+    for name, start, goal in starts:
+        park(vehicle, start, goal, settings, name=name, controller=controller, plant=ocp.plant)
+    return controller.recorder
+
+
+def _time_route(solver: Any, problems: Sequence[NLPProblem]) -> tuple[np.ndarray, np.ndarray, list[Any]]:
+    """Wall and CPU ms per call, and each answer (None where the solver failed)."""
+    for problem in problems[: min(20, len(problems))]:  # load caches and libraries before timing
+        solver(**problem.inputs())
+    gc.collect()
+    wall, cpu, answers = [], [], []
+    for problem in problems:
+        inputs = problem.inputs()
+        t0, c0 = time.perf_counter(), time.process_time()
+        answer = solver(**inputs)
+        ok = bool(solver.stats()["success"])
+        wall.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+        answers.append(np.asarray(answer["x"]).ravel() if ok else None)
+    return 1e3 * np.array(wall), 1e3 * np.array(cpu), answers
+
+
+def _final_errors(route: str, ocp: BenchOCP) -> dict[str, dict[str, float]]:
+    """Final distance and orientation error when ``route`` drives each of the paper's four scenarios."""
+    out = {}
+    for sc in builtin_scenarios():
+        settings = ocp.settings()
+        settings = replace(settings, nmpc=replace(settings.nmpc, solver=route))
+        result = park(sc.vehicle, sc.start, sc.goal, settings, name=sc.name, plant=ocp.plant)
+        last = result.stages[-1]
+        out[sc.name] = {
+            "distance_m": float(last.distance_error_m),
+            "orientation_deg": float(last.orientation_error_deg),
+            "parked": bool(result.success),
+        }
+    return out
+
+
+def bench_ocp(
+    ocp: BenchOCP,
+    routes: Sequence[str],
+    n_starts: int,
+    horizons: Sequence[int] = HORIZONS,
+    progress: Callable[[str], None] = lambda _: None,
+) -> OCPBench:
+    """Record ``ocp``'s problems from ``n_starts`` closed loops and time every route in ``routes`` on them."""
+    vehicle = VehicleTrailer()
+    starts = _starts(n_starts)
+    progress(f"{ocp.name}: recording the default controller on {len(starts)} closed-loop starts")
+    problems = record_problems(ocp, vehicle, starts)
+    reference = make_nmpc(vehicle, ocp.nmpc)  # its transcription lays out the problems
+    tr = reference.transcription
+    equality = list(tr.lbg == tr.ubg)
+    timed: dict[str, tuple[np.ndarray, np.ndarray, list[Any]]] = {}
+    for name in dict.fromkeys(["ipopt", *routes]):
+        progress(f"{ocp.name}: {name} on {len(problems)} problems")
+        with quiet_stderr():
+            solver = make_solver(name, tr.nlp, equality, jit=bool(ocp.nmpc.jit))
+        timed[name] = _time_route(solver, problems)
+    ipopt_median = float(np.median(timed["ipopt"][0]))
+    results = {}
+    for name in routes:
+        wall, cpu, answers = timed[name]
+        diffs = [
+            np.max(np.abs(tr.unpack(a, p.p)[1][0] - tr.unpack(b, p.p)[1][0]))
+            for a, b, p in zip(answers, timed["ipopt"][2], problems, strict=True)
+            if a is not None and b is not None
+        ]
+        finals = {}
+        if ocp.name == "paper":
+            progress(f"{ocp.name}: {name} drives the four paper scenarios")
+            finals = _final_errors(name, ocp)
+        results[name] = RouteBench(
+            float(np.median(wall)),
+            float(np.percentile(wall, 99)),
+            float(np.max(wall)),
+            float(np.median(cpu)),
+            sum(a is None for a in answers),
+            len(problems),
+            ipopt_median / float(np.median(wall)),
+            float(max(diffs)) if diffs else math.nan,
+            finals,
+        )
+    default = ocp.nmpc.solver
+    assert default is not None
+    scaling = {}
+    for horizon in horizons:
+        progress(f"{ocp.name}: the default route ({default}) at N = {horizon}")
+        recorded = record_problems(ocp, vehicle, starts[:4], horizon)
+        controller: TrailerNMPC | FullNMPC = make_nmpc(vehicle, ocp.settings(horizon).nmpc)
+        scaling[str(horizon)] = float(np.median(_time_route(controller.solver, recorded)[0]))
+    return OCPBench(results, default, scaling, len(problems), len(starts))
+
+
+def run_bench(
+    ocps: Sequence[str] | None = None,
+    routes: Sequence[str] | None = None,
+    n_starts: int = 12,
+    horizons: Sequence[int] = HORIZONS,
+    progress: Callable[[str], None] = lambda _: None,
+) -> dict[str, OCPBench]:
+    """Bench ``routes`` (default: all registered) on ``ocps`` (default: all of :data:`BENCH_OCPS`)."""
+    ocps = list(BENCH_OCPS) if ocps is None else list(ocps)
+    routes = list(ROUTES) if routes is None else list(routes)
+    for name in ocps:
+        if name not in BENCH_OCPS:
+            raise InputError(f"--ocp must name OCPs among {', '.join(BENCH_OCPS)}, got {name!r}")
+    for name in routes:
+        if name not in ROUTES:
+            raise InputError(f"--routes must name routes among {', '.join(ROUTES)}, got {name!r}")
+    check_int("--starts", n_starts, 1, 1000)
+    return {name: bench_ocp(BENCH_OCPS[name], routes, n_starts, horizons, progress) for name in ocps}
+
+
+def bench_table(results: dict[str, OCPBench]) -> str:
+    """The printed table: one row per OCP and route, the default marked."""
+    head = (
+        f"{'OCP':<7}{'route':<11}{'median ms':>10}{'p99 ms':>9}{'max ms':>9}{'cpu ms':>8}{'fails':>7}"
+        f"{'x ipopt':>9}{'move diff':>11}{'worst final error':>22}"
+    )
+    lines = [head]
+    for ocp, bench in results.items():
+        for name, r in bench.routes.items():
+            mark = "*" if name == bench.default else " "
+            final = ""
+            if r.final_errors:
+                d = max(e["distance_m"] for e in r.final_errors.values())
+                o = max(abs(e["orientation_deg"]) for e in r.final_errors.values())
+                final = f"{1e3 * d:.3f} mm {o:.4f} deg"
+            lines.append(
+                f"{ocp:<7}{name + mark:<11}{r.median_ms:>10.3f}{r.p99_ms:>9.3f}{r.max_ms:>9.3f}{r.cpu_median_ms:>8.3f}"
+                f"{r.failures:>7d}{r.speedup_vs_ipopt:>9.1f}{r.max_move_diff:>11.1e}{final:>22}"
+            )
+        scaling = ", ".join(f"N={n}: {ms:.3f}" for n, ms in bench.horizon_scaling_ms.items())
+        lines.append(f"{'':<7}default {bench.default} by horizon [ms]: {scaling}")
+    lines.append("* the default route; x ipopt = IPOPT's median over the route's, same run")
+    return "\n".join(lines)

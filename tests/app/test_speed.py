@@ -1,0 +1,118 @@
+"""``hitchpark bench`` and ``hitchpark realtime``: what they measure and write, and bad input."""
+
+from __future__ import annotations
+
+import json
+import time
+
+import numpy as np
+import pytest
+
+from hitchpark.app.bench import BENCH_OCPS, run_bench
+from hitchpark.app.realtime import WallClock, run_realtime
+from hitchpark.cli import EXIT_BAD_INPUT, main
+from hitchpark.maneuver import park
+from hitchpark.maneuver.scenario import builtin_scenario
+
+ROUTE_KEYS = {"median_ms", "p99_ms", "max_ms", "cpu_median_ms", "failures", "speedup_vs_ipopt"}
+
+
+@pytest.fixture(scope="module")
+def paper_bench():
+    return run_bench(["paper"], ["ipopt", "sqp"], n_starts=1, horizons=(10, 20))
+
+
+def test_bench_times_every_route_on_the_same_recorded_problems(paper_bench):
+    bench = paper_bench["paper"]
+    assert bench.default == BENCH_OCPS["paper"].nmpc.solver
+    assert bench.problems > 100 and bench.starts == 1
+    assert set(bench.routes) == {"ipopt", "sqp"}
+    for route in bench.routes.values():
+        assert route.calls == bench.problems and route.failures == 0
+        assert 0 < route.median_ms <= route.p99_ms <= route.max_ms
+        assert route.cpu_median_ms > 0
+        assert route.max_move_diff < 1e-3  # the same optimum as IPOPT's on every recorded problem
+    assert bench.routes["ipopt"].speedup_vs_ipopt == 1.0
+    assert bench.routes["ipopt"].max_move_diff == 0.0
+    assert list(bench.horizon_scaling_ms) == ["10", "20"] and all(v > 0 for v in bench.horizon_scaling_ms.values())
+
+
+def test_bench_drives_the_paper_scenarios_with_each_route(paper_bench):
+    routes = paper_bench["paper"].routes
+    assert list(routes["ipopt"].final_errors) == ["parallel", "parallel_hitch", "perpendicular", "random"]
+    for name, ref in routes["ipopt"].final_errors.items():
+        got = routes["sqp"].final_errors[name]
+        assert ref["parked"] and got["parked"]
+        assert abs(got["distance_m"] - ref["distance_m"]) < 1e-3
+        assert abs(got["orientation_deg"] - ref["orientation_deg"]) < 0.01
+
+
+def test_cli_bench_writes_the_schema(tmp_path, capsys):
+    out = tmp_path / "bench.json"
+    argv = ["bench", "--json", str(out), "--ocp", "paper", "--routes", "ipopt", "--starts", "1", "--no-scaling"]
+    assert main(argv) == 0
+    data = json.loads(out.read_text(encoding="utf-8"))
+    paper = data["ocps"]["paper"]
+    assert ROUTE_KEYS <= set(paper["routes"]["ipopt"]) and set(paper["routes"]["ipopt"]["final_errors"]) == {
+        "parallel",
+        "parallel_hitch",
+        "perpendicular",
+        "random",
+    }
+    assert paper["default"] == BENCH_OCPS["paper"].nmpc.solver and paper["horizon_scaling_ms"] == {}
+    assert "x ipopt" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["--routes", "cplex"], "--routes must name routes among"),
+        (["--ocp", "obstacles,paper"], "--ocp must name OCPs among"),
+        (["--starts", "0"], "--starts"),
+        (["--routes", ","], "--routes must list names"),
+    ],
+)
+def test_cli_bench_bad_input(tmp_path, capsys, argv, match):
+    out = tmp_path / "bench.json"
+    assert main(["bench", "--json", str(out), *argv]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert match in err and err.count("\n") == 1 and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_wall_clock_holds_ticks_to_the_period_and_counts_overruns():
+    clock = WallClock(0.05)
+    clock.restart()
+    start = time.perf_counter()
+    clock.tick()  # no work: waits out the period
+    assert time.perf_counter() - start >= 0.05
+    time.sleep(0.25)  # five periods of work
+    clock.tick()
+    assert clock.ticks == 2 and clock.overruns == 1
+    assert clock.work_s[1] >= 0.25
+
+
+def test_realtime_drives_the_same_maneuver_as_park():
+    scenario = builtin_scenario("parallel")
+    run = run_realtime(scenario, speed_up=1000.0)  # a 0.1 ms tick: the clock paces, it must not steer
+    plain = park(scenario.vehicle, scenario.start, scenario.goal, scenario.settings, plant=scenario.plant)
+    tr, ref = run.maneuver.trajectory, plain.trajectory
+    assert run.maneuver.success and len(tr) == len(ref)
+    np.testing.assert_array_equal(tr.states(), ref.states())
+    assert run.ticks == len(tr) - 1  # one tick per applied sample
+    assert run.period_ms == pytest.approx(0.1)
+    assert run.tick_ms["median"] <= run.tick_ms["p99"] <= run.tick_ms["max"]
+
+
+def test_cli_realtime_writes_ticks_and_refuses_bad_speed_up(tmp_path, capsys):
+    out = tmp_path / "rt.json"
+    code = main(["realtime", "--scenario", "parallel", "--speed-up", "1000", "--json", str(out)])
+    data = json.loads(out.read_text(encoding="utf-8"))
+    assert code == (0 if data["overruns"] == 0 else 1)
+    assert {"ticks", "overruns", "tick_ms"} <= set(data) and set(data["tick_ms"]) == {"median", "p99", "max"}
+    assert data["parked"] is True
+    bad = tmp_path / "bad.json"
+    assert main(["realtime", "--scenario", "parallel", "--speed-up", "0", "--json", str(bad)]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert "--speed-up" in err and err.count("\n") == 1
+    assert not bad.exists()
