@@ -47,7 +47,8 @@ def _cmd_realtime(args: argparse.Namespace) -> int:
     t = run.tick_ms
     print(
         f"{run.ticks} ticks of {run.period_ms:g} ms, {run.overruns} overruns; work per tick: "
-        f"median {t['median']:.2f} ms, p99 {t['p99']:.2f} ms, max {t['max']:.2f} ms; planning standing still {run.standstill_planning_s:.2f} s"
+        f"median {t['median']:.2f} ms, p99 {t['p99']:.2f} ms, max {t['max']:.2f} ms; "
+        f"planning standing still {run.standstill_planning_s:.2f} s"
     )
     outcome = "parked" if run.maneuver.success else f"not parked ({run.maneuver.reason})"
     print(f"{outcome} after {run.to_dict()['maneuver_s']:.1f} s of driving, {run.wall_s:.1f} s of wall clock -> {path}")
