@@ -16,11 +16,13 @@ answers to rounding, only slower.
 from __future__ import annotations
 
 import ctypes
+import hashlib
+import json
 import os
 import subprocess
 import tempfile
 import weakref
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +31,7 @@ import numpy as np
 
 from .compiled import FLAGS, cache_dir, cache_key, jit_available, lock_file, resolved_compiler
 
-__all__ = ["GeneratedNLP", "generated_nlpsol"]
+__all__ = ["GeneratedNLP", "generated_function", "generated_nlpsol"]
 
 #: Libraries the generated code of a plugin calls into (they ship inside CasADi's Python package).
 _LINKED = {"fatrop": ("fatrop", "blasfeo"), "sqpmethod": ()}
@@ -98,6 +100,28 @@ class GeneratedNLP:
         return {"success": ok, "return_status": "Solve_Succeeded" if ok else f"not converged (code {self._code})"}
 
 
+def _cached_library(name: str, key: str, build: Callable[[str, Path, Path], bool]) -> Path | None:
+    """The library ``name`` of cache entry ``key``, built by ``build(compiler, home, library)`` if missing.
+
+    None where nothing can be compiled (switched off, no compiler, no cache, a refusal).
+    """
+    compiler = resolved_compiler()
+    if compiler is None or not jit_available():
+        return None
+    home = cache_dir() / f"{name}-c-{key}"
+    library = home / f"{name}.so"
+    try:
+        home.mkdir(parents=True, exist_ok=True)
+        lock = open(home / ".lock", "a")
+    except OSError:
+        return None
+    with lock:
+        lock_file(lock)  # one process of a pool compiles, the others wait and load it
+        if not library.is_file() and not build(compiler, home, library):
+            return None
+    return library
+
+
 def generated_nlpsol(name: str, plugin: str, nlp: Mapping[str, Any], options: Mapping[str, Any]) -> Any:
     """The solver ``casadi.nlpsol(name, plugin, nlp, options)`` as compiled C, from the cache when it can.
 
@@ -105,45 +129,61 @@ def generated_nlpsol(name: str, plugin: str, nlp: Mapping[str, Any], options: Ma
     compiled.
     """
     compiler = resolved_compiler()
-    if compiler is None or not jit_available() or plugin not in _LINKED:
-        return ca.nlpsol(name, plugin, dict(nlp), dict(options))
-    sizes = (int(nlp["x"].numel()), int(nlp["p"].numel()), int(nlp["g"].numel()))
-    home = cache_dir() / f"{name}-c-{cache_key(plugin, nlp, options, compiler, kind=f'generated-{MAX_INSTANCES}')}"
-    library = home / f"{name}.so"
-    try:
-        home.mkdir(parents=True, exist_ok=True)
-        lock = open(home / ".lock", "a")
-    except OSError:
-        return ca.nlpsol(name, plugin, dict(nlp), dict(options))
-    with lock:
-        lock_file(lock)  # one process of a pool compiles, the others wait and load it
-        if not library.is_file() and not _build(name, plugin, nlp, options, compiler, home, library):
-            return ca.nlpsol(name, plugin, dict(nlp), dict(options))
-    try:
-        return GeneratedNLP(library, name, *sizes)
-    except (OSError, AttributeError):  # a library cut short or of another build: run in-process
-        return ca.nlpsol(name, plugin, dict(nlp), dict(options))
+    library = None
+    if compiler is not None and plugin in _LINKED:
+        key = cache_key(plugin, nlp, options, compiler, kind=f"generated-{MAX_INSTANCES}")
+
+        def build(compiler: str, home: Path, library: Path) -> bool:
+            # error_on_fail: the generated function returns nonzero when the solver did not converge.
+            solver = ca.nlpsol(name, plugin, dict(nlp), {**options, "error_on_fail": True})
+            return _build(solver, _LINKED[plugin], compiler, home, library)
+
+        library = _cached_library(name, key, build)
+    if library is not None:
+        sizes = (int(nlp["x"].numel()), int(nlp["p"].numel()), int(nlp["g"].numel()))
+        try:
+            return GeneratedNLP(library, name, *sizes)
+        except (OSError, AttributeError):  # a library cut short or of another build: run in-process
+            pass
+    return ca.nlpsol(name, plugin, dict(nlp), dict(options))
 
 
-def _build(
-    name: str, plugin: str, nlp: Mapping[str, Any], options: Mapping[str, Any], compiler: str, home: Path, library: Path
-) -> bool:
-    """Generate the solver's C and compile it into ``library`` (written atomically); False if refused."""
-    # error_on_fail: the generated function returns nonzero when the solver did not converge.
-    solver = ca.nlpsol(name, plugin, dict(nlp), {**options, "error_on_fail": True})
+def generated_function(function: ca.Function) -> ca.Function:
+    """``function`` as compiled C (loaded with ``casadi.external``), or itself where nothing compiles.
+
+    For the functions called many times from Python with real work inside (the planner's batches of
+    rollouts): the same answers, about half the time.
+    """
+    compiler = resolved_compiler()
+    if compiler is None:
+        return function
+    name = function.name()
+    described = json.dumps([ca.CasadiMeta.version(), compiler, FLAGS])
+    key = hashlib.sha256((function.serialize() + described).encode()).hexdigest()[:24]
+    library = _cached_library(name, key, lambda cc, home, lib: _build(function, (), cc, home, lib))
+    if library is None:
+        return function
+    try:
+        return ca.external(name, str(library))
+    except RuntimeError:
+        return function
+
+
+def _build(function: Any, links: tuple[str, ...], compiler: str, home: Path, library: Path) -> bool:
+    """Generate the C of ``function`` and compile it into ``library`` (written atomically); False if refused."""
+    name = library.stem
     casadi_home = _casadi_home()
     with tempfile.TemporaryDirectory(dir=home) as scratch:
         source = Path(scratch) / f"{name}.c"
         here = os.getcwd()
         try:
             os.chdir(scratch)  # CasADi writes the file into the working folder
-            solver.generate(source.name, {"main": False, "with_header": False})
+            function.generate(source.name, {"main": False, "with_header": False})
         except RuntimeError:
             return False
         finally:
             os.chdir(here)
         built = Path(scratch) / library.name
-        links = [f"-l{lib}" for lib in _LINKED[plugin]]
         command = [
             compiler,
             *FLAGS,
@@ -154,7 +194,7 @@ def _build(
             f"-I{casadi_home / 'include'}",
             f"-L{casadi_home}",
             f"-Wl,-rpath,{casadi_home}",
-            *links,
+            *[f"-l{lib}" for lib in links],
             "-lm",
             "-o",
             str(built),
