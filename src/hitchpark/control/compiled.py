@@ -15,10 +15,7 @@ itself); ``HITCHPARK_CACHE`` moves the cache (default ``$XDG_CACHE_HOME/hitchpar
 
 from __future__ import annotations
 
-import hashlib
-import json
 import os
-import shutil
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -26,36 +23,9 @@ from typing import Any
 
 import casadi as ca
 
-__all__ = ["cache_dir", "cache_key", "compiled_nlpsol", "jit_available", "lock_file", "resolved_compiler"]
+from ..native import FLAGS, cache_dir, cache_key, jit_available, lock_file, resolved_compiler
 
-#: Measured on the full OCP: -O1 compiles in ~4.5 s and runs as fast as -O2 (~8 s); -O0 runs 1.5x slower.
-FLAGS = ("-O1",)
-
-
-def resolved_compiler() -> str | None:
-    """The C compiler to use (``$CC``, else ``gcc``) as a path, or None if there is none."""
-    name = os.environ.get("CC", "gcc")
-    return shutil.which(name)
-
-
-def jit_available() -> bool:
-    """Compilation is on (``HITCHPARK_JIT`` is not ``0``) and a C compiler is on the path."""
-    return os.environ.get("HITCHPARK_JIT", "1").strip() != "0" and resolved_compiler() is not None
-
-
-def cache_dir() -> Path:
-    """Where compiled solvers are kept."""
-    if os.environ.get("HITCHPARK_CACHE"):
-        return Path(os.environ["HITCHPARK_CACHE"]).absolute()
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "hitchpark"
-
-
-def cache_key(plugin: str, nlp: Mapping[str, Any], options: Mapping[str, Any], compiler: str, kind: str = "") -> str:
-    """A key of everything that shapes a compiled solver: its expression graph, plugin, options, tools."""
-    graph = ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]]).serialize()
-    described = json.dumps([plugin, options, ca.CasadiMeta.version(), compiler, FLAGS], sort_keys=True, default=repr)
-    return hashlib.sha256((kind + graph + described).encode()).hexdigest()[:24]
+__all__ = ["cache_dir", "compiled_nlpsol", "jit_available", "resolved_compiler"]
 
 
 def compiled_nlpsol(name: str, plugin: str, nlp: Mapping[str, Any], options: Mapping[str, Any]) -> Any:
@@ -81,16 +51,6 @@ def compiled_nlpsol(name: str, plugin: str, nlp: Mapping[str, Any], options: Map
             if solver is not None:
                 _save(solver, home / "solver.casadi")
     return solver if solver is not None else ca.nlpsol(name, plugin, dict(nlp), dict(options))
-
-
-def lock_file(handle: Any) -> None:
-    """Hold an exclusive advisory lock on an open file until it is closed (where the system has them)."""
-    try:
-        import fcntl
-
-        fcntl.flock(handle.fileno(), fcntl.LOCK_EX)  # released when the file is closed
-    except (ImportError, OSError):
-        pass  # no advisory locks here: at worst two processes compile the same solver
 
 
 def _load(path: Path) -> Any:

@@ -89,6 +89,8 @@ class MultipleShooting(Transcription):
         self._x_idx = np.array([[k * stride + i for i in range(nx)] for k in range(N + 1)])
         self._u_idx = np.array([[k * stride + nx + i for i in range(nu)] for k in range(N)])
         self._n = stride * N + nx
+        x, u = ca.SX.sym("x", nx), ca.SX.sym("u", nu)
+        self._step = ca.Function("step", [x, u], [problem.discrete_dynamics(x, u)])  # for cold-start rollouts
 
     def bounds(
         self, u_min: np.ndarray, u_max: np.ndarray, free_initial: dict[int, tuple[float, float]] | None = None
@@ -113,7 +115,7 @@ class MultipleShooting(Transcription):
         if states is None:
             rollout = [np.asarray(x0, dtype=float)]
             for u in inputs:
-                rollout.append(np.asarray(self.problem.discrete_dynamics(ca.DM(rollout[-1]), ca.DM(u))).ravel())
+                rollout.append(np.asarray(self._step(rollout[-1], u)).ravel())
             states = np.array(rollout)
         w = np.zeros(self._n)
         w[self._x_idx] = states

@@ -34,6 +34,7 @@ import numpy as np
 
 from ..checks import Choice, InputError, Integer, Real, build, check_fields, checked
 from ..io import read_toml
+from ..native import native
 from .integrate import PLANT_SUBSTEPS, plant_function, rk4_timed
 from .kinematics import full_rhs
 from .state import State, check_state
@@ -207,6 +208,8 @@ class Plant:
     def __init__(self, settings: PlantSettings, model: VehicleTrailer, start: State, dt: float):
         self.settings = settings
         self.vehicle = settings.resolve_vehicle(model)
+        ideal = settings.kind == "ideal"
+        self._step = native(plant_function(self.vehicle) if ideal else actuated_plant_function(self.vehicle))
         check_state(self.vehicle, start)
         self.dt = float(dt)
         self.t = 0.0
@@ -270,12 +273,12 @@ class Plant:
         if self.settings.kind == "ideal":
             steer = float(np.clip(acted.front_steer, -self.vehicle.max_steer, self.vehicle.max_steer))
             start = Command(acted.rear_speed, steer)
-            x_next = np.asarray(plant_function(self.vehicle)(self._x, ca.vertcat(*(start.rear_speed, steer)), self.dt))
+            x_next = np.asarray(self._step(self._x, [start.rear_speed, steer], self.dt))
             end = start
         else:
             start = Command(self.rear_speed, self.front_steer)
             cmd = [acted.rear_speed, acted.front_steer]
-            out = actuated_plant_function(self.vehicle)(self._x, [self.front_steer, self.rear_speed], cmd, self._par)
+            out = self._step(self._x, [self.front_steer, self.rear_speed], cmd, self._par)
             x_next = np.asarray(out[0])
             act = np.asarray(out[1]).ravel()
             end = Command(float(act[1]), float(act[0]))

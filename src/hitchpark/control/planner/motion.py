@@ -15,7 +15,7 @@ by construction (each RK4 increment is a weighted mean of slopes within the boun
 One RK4 step per sample. Built once per vehicle and sampling as a CasADi function mapped over a batch
 of primitives: evaluating 14 primitives of 10 samples takes about 0.3 ms, against about 1.8 ms for the
 same RK4 vectorised in NumPy (measured on this 2-core machine). The batch functions are compiled to C
-where a compiler is at hand (:func:`~hitchpark.control.generated.generated_function`), about half the
+where a compiler is at hand (:func:`~hitchpark.native.generated_function`), about half the
 time again.
 """
 
@@ -24,6 +24,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -31,7 +32,7 @@ import numpy as np
 from ...model.inverse import front_steer_from_virtual
 from ...model.kinematics import full_rhs
 from ...model.vehicle import VehicleTrailer
-from ..generated import generated_function
+from ...native import generated_function
 
 __all__ = ["GoalShot", "PrimitiveBatch", "commanded_steer"]
 
@@ -83,7 +84,7 @@ def _pursuit_rhs(
 
 
 @functools.lru_cache(maxsize=16)
-def _shot_function(vehicle: VehicleTrailer, step: float, runs: int, chunk: int) -> ca.Function:
+def _shot_function(vehicle: VehicleTrailer, step: float, runs: int, chunk: int) -> Callable[..., Any]:
     """``F(x0 (5, runs), lookaheads (1, runs * chunk), limits) -> (5, runs * chunk)``: reverse runs onto the goal line.
 
     In the goal frame. The trailer axle pursues the point of the line y = 0 one look-ahead behind it (the
@@ -102,7 +103,7 @@ def _shot_function(vehicle: VehicleTrailer, step: float, runs: int, chunk: int) 
 
 
 @functools.lru_cache(maxsize=16)
-def _pursuit_function(vehicle: VehicleTrailer, step: float, runs: int) -> ca.Function:
+def _pursuit_function(vehicle: VehicleTrailer, step: float, runs: int) -> Callable[..., Any]:
     """``F(x (5, runs), targets (2, runs), limit) -> (5, runs)``: one RK4 step of each run towards its point."""
     x0, target, limit = ca.SX.sym("x0", 5), ca.SX.sym("target", 2), ca.SX.sym("limit")
 
@@ -126,7 +127,7 @@ def _primitive_function(vehicle: VehicleTrailer, length: float, samples: int) ->
 
 
 @functools.lru_cache(maxsize=16)
-def _primitive_batch_function(vehicle: VehicleTrailer, length: float, samples: int, size: int) -> ca.Function:
+def _primitive_batch_function(vehicle: VehicleTrailer, length: float, samples: int, size: int) -> Callable[..., Any]:
     """:func:`_primitive_function` mapped over ``size`` primitives, compiled where it can be."""
     return generated_function(_primitive_function(vehicle, length, samples).map(size))
 
