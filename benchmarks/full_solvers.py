@@ -32,7 +32,7 @@ def main(n: int = 3) -> None:
         for _ in range(n)
     ]
     print(f"{'solver':<8} {'parked':>7} {'median ms':>10} {'p99 ms':>8} {'max ms':>8}")
-    for solver in ("fatrop", "ipopt"):
+    for solver in ("fatrop_c", "fatrop", "ipopt"):
         settings = ManeuverSettings(nmpc=replace(NMPCSettings(), solver=solver, fallback_solver=None))
         controller = make_nmpc(vehicle, settings.nmpc)
         times, parked = [], 0

@@ -19,9 +19,10 @@ from hitchpark.control import NMPCSettings
 from hitchpark.maneuver import builtin_scenarios, park
 
 CONFIGS = {
-    "sqp + ipopt fallback, multiple shooting (default)": {},
+    "fatrop_c + ipopt fallback, multiple shooting (default)": {},
+    "sqp + ipopt fallback, multiple shooting": {"solver": "sqp"},
     "ipopt, multiple shooting": {"solver": "ipopt", "fallback_solver": None},
-    "sqp + ipopt fallback, single shooting": {"transcription": "single_shooting"},
+    "sqp + ipopt fallback, single shooting": {"solver": "sqp", "transcription": "single_shooting"},
     "ipopt, single shooting": {"solver": "ipopt", "fallback_solver": None, "transcription": "single_shooting"},
 }
 

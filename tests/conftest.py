@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, settings
 from hitchpark.model import VehicleTrailer
 
 # Compiling each controller's NLP to C takes seconds and the suite builds dozens of them: it runs
-# uncompiled (same expressions, same results to rounding). tests/control/test_compiled.py compiles.
+# uncompiled (same expressions, same results to rounding). Tests that compile ask for `jit_cache`.
 os.environ.setdefault("HITCHPARK_JIT", "0")
 
 # Modest example counts and no per-example deadline: the suite must stay fast and must
@@ -37,3 +37,18 @@ def table4() -> VehicleTrailer:
 def table2() -> VehicleTrailer:
     """The inverse-kinematics study vehicle (Table 2): L = 3, L_H = 1, L_T = 2.5 m."""
     return VehicleTrailer(wheelbase=3.0, hitch_offset=1.0, trailer_length=2.5)
+
+
+@pytest.fixture
+def jit_cache(tmp_path, monkeypatch):
+    """Compilation on, into a cache of this test's own, from a working folder that must stay empty."""
+    from hitchpark.native import resolved_compiler
+
+    if resolved_compiler() is None:
+        pytest.skip("no C compiler on this machine")
+    monkeypatch.setenv("HITCHPARK_JIT", "1")
+    monkeypatch.setenv("HITCHPARK_CACHE", str(tmp_path / "cache"))
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    return tmp_path / "cache", work

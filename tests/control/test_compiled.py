@@ -11,18 +11,6 @@ from hitchpark.model.plant import Measurement
 from hitchpark.model.state import Pose, State
 
 
-@pytest.fixture
-def jit_cache(tmp_path, monkeypatch):
-    if compiled.resolved_compiler() is None:
-        pytest.skip("no C compiler on this machine")
-    monkeypatch.setenv("HITCHPARK_JIT", "1")
-    monkeypatch.setenv("HITCHPARK_CACHE", str(tmp_path / "cache"))
-    work = tmp_path / "work"
-    work.mkdir()
-    monkeypatch.chdir(work)
-    return tmp_path / "cache", work
-
-
 def _plans(controller, starts):
     out = []
     for x, y, yaw, hitch in starts:

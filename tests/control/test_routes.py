@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from hitchpark import VehicleTrailer
-from hitchpark.control import NMPCSettings, TrailerNMPC, compiled, make_nmpc
+from hitchpark.control import NMPCSettings, TrailerNMPC, make_nmpc
 from hitchpark.control.generated import GeneratedNLP
 from hitchpark.control.nmpc import NLPProblem
 from hitchpark.control.solvers import ROUTES, make_solver
@@ -76,18 +76,6 @@ def test_a_structured_route_hands_the_free_steer_problem_to_a_general_one():
     assert controller._general is not None and controller._general is not controller.solver
     assert steer is not None and abs(steer) <= sc.vehicle.max_steer
     assert abs(steer) > 1e-3  # a start off the axis asks for the wheels turned
-
-
-@pytest.fixture
-def jit_cache(tmp_path, monkeypatch):
-    if compiled.resolved_compiler() is None:
-        pytest.skip("no C compiler on this machine")
-    monkeypatch.setenv("HITCHPARK_JIT", "1")
-    monkeypatch.setenv("HITCHPARK_CACHE", str(tmp_path / "cache"))
-    work = tmp_path / "work"
-    work.mkdir()
-    monkeypatch.chdir(work)
-    return tmp_path / "cache", work
 
 
 def test_generated_c_is_the_same_solver_cached_and_leaves_nothing_behind(jit_cache, paper_problems, monkeypatch):
