@@ -21,6 +21,7 @@ import os
 import shutil
 import subprocess
 import tempfile
+import threading
 import weakref
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -40,6 +41,7 @@ __all__ = [
     "cached_library",
     "generated_function",
     "jit_available",
+    "load_cached",
     "lock_file",
     "native",
     "resolved_compiler",
@@ -81,8 +83,19 @@ def cache_dir() -> Path:
 def cache_key(plugin: str, nlp: Mapping[str, Any], options: Mapping[str, Any], compiler: str, kind: str = "") -> str:
     """A key of everything that shapes a compiled solver: its expression graph, plugin, options, tools."""
     graph = ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]]).serialize()
-    described = json.dumps([plugin, options, ca.CasadiMeta.version(), compiler, FLAGS], sort_keys=True, default=repr)
-    return hashlib.sha256((kind + graph + described).encode()).hexdigest()[:24]
+    return _key(kind + graph, [plugin, options, compiler])
+
+
+def _key(graph: str, described: Any) -> str:
+    """Hash of a serialized graph and what else shapes its build, the tools and where CasADi lives included
+    (a generated library links CasADi's own by absolute path)."""
+    tools = [ca.CasadiMeta.version(), str(_casadi_home()), FLAGS, MAX_INSTANCES]
+    text = json.dumps([described, tools], sort_keys=True, default=repr)
+    return hashlib.sha256((graph + text).encode()).hexdigest()[:24]
+
+
+def _casadi_home() -> Path:
+    return Path(ca.__file__).parent
 
 
 def lock_file(handle: Any) -> None:
@@ -95,8 +108,9 @@ def lock_file(handle: Any) -> None:
         pass  # no advisory locks here: at worst two processes compile the same thing
 
 
-def cached_library(name: str, key: str, build: Callable[[str, Path, Path], bool]) -> Path | None:
-    """The library ``name`` of cache entry ``key``, built by ``build(compiler, home, library)`` if missing.
+def cached_library(name: str, key: str, build: Callable[[str, Path, Path], bool], rebuild: bool = False) -> Path | None:
+    """The library ``name`` of cache entry ``key``, built by ``build(compiler, home, library)`` if missing
+    (or, ``rebuild``, replaced: a library that would not load).
 
     None where nothing can be compiled (switched off, no compiler, no cache, a refusal).
     """
@@ -112,9 +126,24 @@ def cached_library(name: str, key: str, build: Callable[[str, Path, Path], bool]
         return None
     with lock:
         lock_file(lock)  # one process of a pool compiles, the others wait and load it
+        if rebuild:
+            library.unlink(missing_ok=True)
         if not library.is_file() and not build(compiler, home, library):
             return None
     return library
+
+
+def load_cached(name: str, key: str, build: Callable[[str, Path, Path], bool], load: Callable[[Path], Any]) -> Any:
+    """``load(library)`` of :func:`cached_library`, rebuilt once if it would not load; None if none loads."""
+    for rebuild in (False, True):
+        library = cached_library(name, key, build, rebuild)
+        if library is None:
+            return None
+        try:
+            return load(library)
+        except (OSError, AttributeError):  # cut short, or of another build: compile it again
+            continue
+    return None
 
 
 def build_library(function: Any, links: Sequence[str], compiler: str, home: Path, library: Path) -> bool:
@@ -122,7 +151,7 @@ def build_library(function: Any, links: Sequence[str], compiler: str, home: Path
 
     ``links``: libraries of CasADi's package the code calls into (a solver's, say).
     """
-    casadi_home = Path(ca.__file__).parent
+    casadi_home = _casadi_home()
     with tempfile.TemporaryDirectory(dir=home) as scratch:
         source = Path(scratch) / f"{library.stem}.c"
         here = os.getcwd()
@@ -183,6 +212,9 @@ class LibraryCall:
         self._w = np.zeros(max(n_w, 1))
         self._iw_p = self._iw.ctypes.data_as(ctypes.POINTER(_INT))
         self._w_p = self._w.ctypes.data_as(_REAL)
+        #: Hold it while filling the buffers, calling and copying the answer out: ctypes lets other
+        #: threads run during the call, and they share these buffers.
+        self.lock = threading.Lock()
 
     def call(self) -> int:
         """Run it on :attr:`inputs`; the generated code's return value (nonzero: it failed)."""
@@ -206,6 +238,10 @@ class CompiledFunction:
             [r * c for r, c in self._shapes_out],
         )
         self._name = function.name()
+        self._source = (library, function)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (CompiledFunction, self._source)  # another process loads the library anew
 
     def name(self) -> str:
         return self._name
@@ -216,17 +252,17 @@ class CompiledFunction:
     def __call__(self, *args: Any) -> Any:
         if len(args) != len(self._shapes_in):
             raise TypeError(f"{self._name} takes {len(self._shapes_in)} arguments, got {len(args)}")
-        for value, (rows, cols), buffer in zip(args, self._shapes_in, self._lib.inputs, strict=True):
-            a = np.asarray(value, dtype=float)
-            if a.ndim == 0 or (a.size == buffer.size and (a.ndim == 1 or 1 in (rows, cols))):
-                buffer[:] = a.ravel()  # a number, or a vector (the same in either order)
-            elif a.shape == (rows, cols):
-                buffer[:] = a.ravel(order="F")
-            else:
+        values = [np.asarray(value, dtype=float) for value in args]
+        for a, (rows, cols) in zip(values, self._shapes_in, strict=True):
+            vector = 1 in (rows, cols) and a.size == rows * cols  # the same numbers in either order
+            if not (a.ndim == 0 or vector or a.shape == (rows, cols)):
                 raise ValueError(f"{self._name}: an argument of shape {a.shape}, expected {(rows, cols)}")
-        if self._lib.call():
-            raise RuntimeError(f"{self._name}: the compiled function failed")
-        out = tuple(b.reshape(c, r).T.copy() for b, (r, c) in zip(self._lib.outputs, self._shapes_out, strict=True))
+        with self._lib.lock:
+            for a, buffer in zip(values, self._lib.inputs, strict=True):
+                buffer[:] = a.ravel(order="F")  # a number fills the input; CasADi's matrices are column-major
+            if self._lib.call():
+                raise RuntimeError(f"{self._name}: the compiled function failed")
+            out = tuple(b.reshape(c, r).T.copy() for b, (r, c) in zip(self._lib.outputs, self._shapes_out, strict=True))
         return out[0] if len(out) == 1 else out
 
 
@@ -235,22 +271,18 @@ def generated_function(function: ca.Function) -> ca.Function | CompiledFunction:
 
     Only functions of dense inputs and outputs are compiled: they are what is called in loops.
     """
-    compiler = resolved_compiler()
     dense = all(function.sparsity_in(i).is_dense() for i in range(function.n_in())) and all(
         function.sparsity_out(i).is_dense() for i in range(function.n_out())
     )
-    if compiler is None or not dense:
+    if not dense:
         return function
-    name = function.name()
-    described = json.dumps([ca.CasadiMeta.version(), compiler, FLAGS, MAX_INSTANCES])
-    key = hashlib.sha256((function.serialize() + described).encode()).hexdigest()[:24]
-    library = cached_library(name, key, lambda cc, home, lib: build_library(function, (), cc, home, lib))
-    if library is None:
-        return function
-    try:
-        return CompiledFunction(library, function)
-    except (OSError, AttributeError):  # a library cut short or of another build: run in CasADi
-        return function
+    loaded = load_cached(
+        function.name(),
+        _key(function.serialize(), "function"),
+        lambda cc, home, lib: build_library(function, (), cc, home, lib),
+        lambda library: CompiledFunction(library, function),
+    )
+    return function if loaded is None else loaded
 
 
 def native(function: ca.Function) -> ca.Function | CompiledFunction:

@@ -181,6 +181,10 @@ class _RecedingHorizon:
                 self._general = make_solver(general, self.transcription.nlp, self._equality)
         return self._general
 
+    def _fallback_structured(self) -> bool:
+        fallback = self.settings.fallback_solver
+        return fallback is not None and ROUTES[fallback].structured
+
     def _solve_cascade(
         self,
         x0: np.ndarray,
@@ -199,14 +203,18 @@ class _RecedingHorizon:
         if self.recorder is not None and primary is self.solver:
             self.recorder.append(NLPProblem(*(np.array(a, dtype=float) for a in (x0, warm, *bounds))))
         ok, status, w, cost = self._solve(primary, x0, warm, bounds)
-        if not ok and self.fallback is not None:
-            # The fast primary solver can stall where the interior-point fallback does not.
-            ok, status, w, cost = self._solve(self.fallback, x0, warm, bounds)
+        # The fast primary solver can stall where the interior-point fallback does not (a structured
+        # fallback cannot take a relaxed problem; the same solver again would answer the same).
+        fallback = self.fallback
+        if fallback is primary or (relaxed and fallback is not None and self._fallback_structured()):
+            fallback = None
+        if not ok and fallback is not None:
+            ok, status, w, cost = self._solve(fallback, x0, warm, bounds)
         if not ok and self._last_inputs is not None:
             # A warm start can mislead the solver; one last try from the cold guess before giving up.
             self._last_inputs = self._last_states = None
             cold = self._initial_guess(x0, u_min, u_max)
-            ok, status, w, cost = self._solve(self.fallback or self.solver, x0, cold, bounds)
+            ok, status, w, cost = self._solve(fallback or primary, x0, cold, bounds)
         solve_ms = 1e3 * (time.perf_counter() - t0)
         states, inputs = self.transcription.unpack(w, x0)
         return ok, status, states, inputs, cost, solve_ms

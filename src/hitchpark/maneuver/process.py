@@ -52,15 +52,17 @@ __all__ = ["SETTLE_TOLERANCE", "Clock", "park"]
 class Clock(Protocol):
     """Paces the loop: ``tick`` as each command is ready, right before the plant applies it.
 
-    The work of a tick runs from the previous tick (or ``restart``) to this one: sense, the
-    controller's step, the guard. ``restart`` is called when the process has decided what comes
-    next, standing still (planning is not the work of a tick). ``hitchpark realtime`` passes a
-    clock that holds each tick to a wall-clock period and counts the ticks whose work overran it.
+    The work of a tick runs from the previous tick (or ``restart``) to this one: the plant's previous
+    step and the record as well as sensing, the controller's step and the guard. ``restart`` is called
+    when the process has decided what comes next, standing still (planning is not the work of a tick).
+    ``hitchpark realtime`` passes a clock that holds each tick to a wall-clock period and counts the
+    ticks whose work overran it.
     """
 
     def tick(self) -> None: ...
 
     def restart(self) -> None: ...
+
 
 #: A stage starts moving once the actual steer is this close to the steer it asked for [rad].
 SETTLE_TOLERANCE = math.radians(0.5)

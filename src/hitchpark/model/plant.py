@@ -208,8 +208,6 @@ class Plant:
     def __init__(self, settings: PlantSettings, model: VehicleTrailer, start: State, dt: float):
         self.settings = settings
         self.vehicle = settings.resolve_vehicle(model)
-        ideal = settings.kind == "ideal"
-        self._step = native(plant_function(self.vehicle) if ideal else actuated_plant_function(self.vehicle))
         check_state(self.vehicle, start)
         self.dt = float(dt)
         self.t = 0.0
@@ -273,12 +271,13 @@ class Plant:
         if self.settings.kind == "ideal":
             steer = float(np.clip(acted.front_steer, -self.vehicle.max_steer, self.vehicle.max_steer))
             start = Command(acted.rear_speed, steer)
-            x_next = np.asarray(self._step(self._x, [start.rear_speed, steer], self.dt))
+            x_next = np.asarray(native(plant_function(self.vehicle))(self._x, [start.rear_speed, steer], self.dt))
             end = start
         else:
             start = Command(self.rear_speed, self.front_steer)
             cmd = [acted.rear_speed, acted.front_steer]
-            out = self._step(self._x, [self.front_steer, self.rear_speed], cmd, self._par)
+            step = native(actuated_plant_function(self.vehicle))  # compiled once per process (and vehicle)
+            out = step(self._x, [self.front_steer, self.rear_speed], cmd, self._par)
             x_next = np.asarray(out[0])
             act = np.asarray(out[1]).ravel()
             end = Command(float(act[1]), float(act[0]))

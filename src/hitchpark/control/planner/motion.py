@@ -15,7 +15,7 @@ by construction (each RK4 increment is a weighted mean of slopes within the boun
 One RK4 step per sample. Built once per vehicle and sampling as a CasADi function mapped over a batch
 of primitives: evaluating 14 primitives of 10 samples takes about 0.3 ms, against about 1.8 ms for the
 same RK4 vectorised in NumPy (measured on this 2-core machine). The batch functions are compiled to C
-where a compiler is at hand (:func:`~hitchpark.native.generated_function`), about half the
+where a compiler is at hand (:func:`~hitchpark.native.native`), about half the
 time again.
 """
 
@@ -24,7 +24,6 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable
-from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -32,7 +31,7 @@ import numpy as np
 from ...model.inverse import front_steer_from_virtual
 from ...model.kinematics import full_rhs
 from ...model.vehicle import VehicleTrailer
-from ...native import generated_function
+from ...native import native
 
 __all__ = ["GoalShot", "PrimitiveBatch", "commanded_steer"]
 
@@ -84,7 +83,7 @@ def _pursuit_rhs(
 
 
 @functools.lru_cache(maxsize=16)
-def _shot_function(vehicle: VehicleTrailer, step: float, runs: int, chunk: int) -> Callable[..., Any]:
+def _shot_function(vehicle: VehicleTrailer, step: float, runs: int, chunk: int) -> ca.Function:
     """``F(x0 (5, runs), lookaheads (1, runs * chunk), limits) -> (5, runs * chunk)``: reverse runs onto the goal line.
 
     In the goal frame. The trailer axle pursues the point of the line y = 0 one look-ahead behind it (the
@@ -99,11 +98,11 @@ def _shot_function(vehicle: VehicleTrailer, step: float, runs: int, chunk: int) 
         return _pursuit_rhs(vehicle, x, x[0] - ahead, 0.0, limit, step)
 
     one = ca.Function("shot_step", [x0, lookahead, limit], [_rk4_columns(rhs, x0, step, 1)[:, 1]])
-    return generated_function(one.map(runs).mapaccum("goal_shot", chunk))
+    return one.map(runs).mapaccum("goal_shot", chunk)
 
 
 @functools.lru_cache(maxsize=16)
-def _pursuit_function(vehicle: VehicleTrailer, step: float, runs: int) -> Callable[..., Any]:
+def _pursuit_function(vehicle: VehicleTrailer, step: float, runs: int) -> ca.Function:
     """``F(x (5, runs), targets (2, runs), limit) -> (5, runs)``: one RK4 step of each run towards its point."""
     x0, target, limit = ca.SX.sym("x0", 5), ca.SX.sym("target", 2), ca.SX.sym("limit")
 
@@ -111,7 +110,7 @@ def _pursuit_function(vehicle: VehicleTrailer, step: float, runs: int) -> Callab
         return _pursuit_rhs(vehicle, x, target[0], target[1], limit, step)
 
     one = ca.Function("pursuit_step", [x0, target, limit], [_rk4_columns(rhs, x0, step, 1)[:, 1]])
-    return generated_function(one.map(runs))
+    return one.map(runs)
 
 
 @functools.lru_cache(maxsize=16)
@@ -127,9 +126,9 @@ def _primitive_function(vehicle: VehicleTrailer, length: float, samples: int) ->
 
 
 @functools.lru_cache(maxsize=16)
-def _primitive_batch_function(vehicle: VehicleTrailer, length: float, samples: int, size: int) -> Callable[..., Any]:
-    """:func:`_primitive_function` mapped over ``size`` primitives, compiled where it can be."""
-    return generated_function(_primitive_function(vehicle, length, samples).map(size))
+def _primitive_batch_function(vehicle: VehicleTrailer, length: float, samples: int, size: int) -> ca.Function:
+    """:func:`_primitive_function` mapped over ``size`` primitives."""
+    return _primitive_function(vehicle, length, samples).map(size)
 
 
 @functools.lru_cache(maxsize=16)
@@ -146,7 +145,7 @@ class PrimitiveBatch:
         self.samples = samples
         self.size = size
         self.times = np.linspace(0.0, length, samples + 1)
-        self._mapped = _primitive_batch_function(vehicle, length, samples, size)
+        self._mapped = native(_primitive_batch_function(vehicle, length, samples, size))
         self._initial = _initial_steer_function(vehicle).map(size)
 
     def initial_steer(self, hitch: float, command: np.ndarray, direction: np.ndarray) -> np.ndarray:
@@ -186,7 +185,7 @@ class GoalShot:
         vehicle.require_hitch_offset()
         self.step = step
         self.lookaheads = np.asarray(lookaheads, dtype=float)
-        self._function = _shot_function(vehicle, step, len(lookaheads), self.CHUNK)
+        self._function = native(_shot_function(vehicle, step, len(lookaheads), self.CHUNK))
 
     def run(self, start: np.ndarray, limit: float, length: float, ended: Callable[[np.ndarray], bool]) -> np.ndarray:
         """(x, y, yaw, hitch, steer) of each run from ``start`` (5,) in the goal frame: (runs, samples + 1, 5).
@@ -224,7 +223,7 @@ class PathPursuit:
         vehicle.require_hitch_offset()
         self.step = step
         self.runs = runs
-        self._function = _pursuit_function(vehicle, step, runs)
+        self._function = native(_pursuit_function(vehicle, step, runs))
 
     def run(
         self,
