@@ -3,9 +3,9 @@
 :mod:`.compiled` compiles the NLP's functions and leaves the solver in CasADi's virtual machine;
 here CasADi writes the solver itself (fatrop's or sqpmethod's iterations, the QP, the functions)
 as one C file, the system's C compiler makes a shared library of it, and each call fills
-buffers laid out once and calls the library through :mod:`ctypes` (:mod:`hitchpark.native`). On the
-paper's OCP a call takes 0.11 ms against 0.29 ms for the same solver called through CasADi, on the full
-OCP 0.31 against 0.51 (``hitchpark bench``); on an embedded computer this C file is what would run.
+buffers laid out once and calls the library through :mod:`ctypes` (:mod:`hitchpark.native`). A call
+takes about 0.11 ms against 0.29 ms for the same solver called through CasADi on the paper's OCP, 0.35
+against 0.58 ms on the full one (``hitchpark bench``); on an embedded computer this C file is what runs.
 
 Where nothing can be compiled (``HITCHPARK_JIT=0``, no C compiler, a compiler that refuses), or
 when all :data:`~hitchpark.native.MAX_INSTANCES` memories of a library are taken by live solvers,
