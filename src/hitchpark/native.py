@@ -80,16 +80,16 @@ def cache_dir() -> Path:
     return Path(base) / "hitchpark"
 
 
-def cache_key(plugin: str, nlp: Mapping[str, Any], options: Mapping[str, Any], compiler: str, kind: str = "") -> str:
+def cache_key(plugin: str, nlp: Mapping[str, Any], options: Mapping[str, Any], kind: str = "") -> str:
     """A key of everything that shapes a compiled solver: its expression graph, plugin, options, tools."""
     graph = ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]]).serialize()
-    return _key(kind + graph, [plugin, options, compiler])
+    return _key(kind + graph, [plugin, options])
 
 
 def _key(graph: str, described: Any) -> str:
     """Hash of a serialized graph and what else shapes its build, the tools and where CasADi lives included
     (a generated library links CasADi's own by absolute path)."""
-    tools = [ca.CasadiMeta.version(), str(_casadi_home()), FLAGS, MAX_INSTANCES]
+    tools = [ca.CasadiMeta.version(), str(_casadi_home()), resolved_compiler(), FLAGS, MAX_INSTANCES]
     text = json.dumps([described, tools], sort_keys=True, default=repr)
     return hashlib.sha256((graph + text).encode()).hexdigest()[:24]
 

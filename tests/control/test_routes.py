@@ -231,3 +231,16 @@ def test_generated_routes_reach_the_reference_optimum(jit_cache, route, ocp, pap
         assert ok
         assert f == pytest.approx(f_ref, rel=1e-5, abs=1e-9)
         np.testing.assert_allclose(tr.unpack(w, problem.p)[1][0], tr.unpack(w_ref, problem.p)[1][0], atol=2e-4)
+
+
+def test_a_plant_with_a_compiled_step_pickles_and_steps_the_same(jit_cache):
+    import pickle
+
+    from hitchpark.model.plant import Command, Plant, PlantSettings
+    from hitchpark.model.state import State
+
+    plant = Plant(PlantSettings(), VehicleTrailer(), State(6.0, 1.0, 0.3, 0.1), 0.1)
+    copy = pickle.loads(pickle.dumps(plant))
+    for command in (Command(-0.5, 0.2), Command(-1.0, -0.3)):
+        assert plant.apply(command) == copy.apply(command)
+    np.testing.assert_array_equal(plant.state.as_array(), copy.state.as_array())

@@ -117,14 +117,16 @@ def _starts(n: int) -> list[tuple[str, State, Pose]]:
 
 def record_problems(
     ocp: BenchOCP, vehicle: VehicleTrailer, starts: Sequence[tuple[str, State, Pose]], horizon: int | None = None
-) -> list[NLPProblem]:
-    """Every problem the default controller of ``ocp`` poses while parking from ``starts``."""
+) -> tuple[TrailerNMPC | FullNMPC, list[NLPProblem]]:
+    """The default controller of ``ocp`` and every problem it poses while parking from ``starts``."""
     settings = ocp.settings(horizon)
     controller = make_nmpc(vehicle, settings.nmpc)
-    controller.recorder = []
+    problems: list[NLPProblem] = []
+    controller.recorder = problems
     for name, start, goal in starts:
         park(vehicle, start, goal, settings, name=name, controller=controller, plant=ocp.plant)
-    return controller.recorder
+    controller.recorder = None
+    return controller, problems
 
 
 def _time_route(solver: Any, problems: Sequence[NLPProblem]) -> tuple[np.ndarray, np.ndarray, list[Any]]:
@@ -171,9 +173,8 @@ def bench_ocp(
     vehicle = VehicleTrailer()
     starts = _starts(n_starts)
     progress(f"{ocp.name}: recording the default controller on {len(starts)} closed-loop starts")
-    problems = record_problems(ocp, vehicle, starts)
-    reference = make_nmpc(vehicle, ocp.nmpc)  # its transcription lays out the problems
-    tr = reference.transcription
+    recorder, problems = record_problems(ocp, vehicle, starts)
+    tr = recorder.transcription  # it lays out the problems
     equality = list(tr.lbg == tr.ubg)
     timed: dict[str, tuple[np.ndarray, np.ndarray, list[Any]]] = {}
     for name in dict.fromkeys(["ipopt", *routes]):
@@ -210,8 +211,7 @@ def bench_ocp(
     scaling = {}
     for horizon in horizons:
         progress(f"{ocp.name}: the default route ({default}) at N = {horizon}")
-        recorded = record_problems(ocp, vehicle, starts[:4], horizon)
-        controller: TrailerNMPC | FullNMPC = make_nmpc(vehicle, ocp.settings(horizon).nmpc)
+        controller, recorded = record_problems(ocp, vehicle, starts[:4], horizon)
         scaling[str(horizon)] = float(np.median(_time_route(controller.solver, recorded)[0]))
     return OCPBench(results, default, scaling, len(problems), len(starts))
 

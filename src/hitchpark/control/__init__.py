@@ -5,11 +5,11 @@ from .full_ocp import FullParkingProblem
 from .nmpc import FullNMPC, NMPCStep, TrailerNMPC, make_nmpc
 from .ocp import NMPCSettings, TrailerParkingProblem
 from .pure_pursuit import ForwardPursuit, PurePursuitSettings
-from .solvers import SOLVERS, make_solver, register_solver
+from .solvers import ROUTES, make_solver, register_solver
 from .transcription import MultipleShooting, SingleShooting, make_transcription
 
 __all__ = [
-    "SOLVERS",
+    "ROUTES",
     "ForwardPursuit",
     "FullNMPC",
     "FullParkingProblem",

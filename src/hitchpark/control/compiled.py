@@ -36,7 +36,7 @@ def compiled_nlpsol(name: str, plugin: str, nlp: Mapping[str, Any], options: Map
     compiler = resolved_compiler()
     if compiler is None or not jit_available():
         return ca.nlpsol(name, plugin, dict(nlp), dict(options))
-    home = cache_dir() / f"{name}-{cache_key(plugin, nlp, options, compiler)}"
+    home = cache_dir() / f"{name}-{cache_key(plugin, nlp, options)}"
     try:
         home.mkdir(parents=True, exist_ok=True)
         lock = open(home / ".lock", "a")

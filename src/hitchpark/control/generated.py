@@ -85,7 +85,7 @@ def generated_nlpsol(name: str, plugin: str, nlp: Mapping[str, Any], options: Ma
             return build_library(solver, _LINKED[plugin], compiler, home, library)
 
         sizes = (int(nlp["x"].numel()), int(nlp["p"].numel()), int(nlp["g"].numel()))
-        key = cache_key(plugin, nlp, options, compiler, kind="generated")
+        key = cache_key(plugin, nlp, options, kind="generated")
         loaded = load_cached(name, key, build, lambda library: GeneratedNLP(library, name, *sizes))
         if loaded is not None:
             return loaded

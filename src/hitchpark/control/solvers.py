@@ -24,7 +24,6 @@ from .generated import generated_nlpsol
 
 __all__ = [
     "ROUTES",
-    "SOLVERS",
     "Route",
     "casadi_reason",
     "make_solver",
@@ -55,9 +54,6 @@ class Route:
 
 ROUTES: dict[str, Route] = {}
 
-#: ``name -> factory``, the plugin and options of each route (kept for callers of the first registry).
-SOLVERS: dict[str, SolverFactory] = {}
-
 
 def register_solver(
     name: str, generated: bool = False, structured: bool = False
@@ -70,7 +66,6 @@ def register_solver(
 
     def put(factory: SolverFactory) -> SolverFactory:
         ROUTES[name] = Route(name, factory, generated, structured)
-        SOLVERS[name] = factory
         return factory
 
     return put

@@ -227,6 +227,19 @@ class Plant:
             ]
         )
         self._bias = np.array([0.0, 0.0, 0.0, math.radians(s.hitch_bias_deg)])
+        self._step = self._step_function()
+
+    def _step_function(self) -> Any:
+        """One sample of this plant, compiled once per process and vehicle (:func:`~hitchpark.native.native`)."""
+        ideal = self.settings.kind == "ideal"
+        return native(plant_function(self.vehicle) if ideal else actuated_plant_function(self.vehicle))
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k != "_step"}  # compiled code stays in its process
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._step = self._step_function()
 
     @property
     def state(self) -> State:
@@ -271,13 +284,12 @@ class Plant:
         if self.settings.kind == "ideal":
             steer = float(np.clip(acted.front_steer, -self.vehicle.max_steer, self.vehicle.max_steer))
             start = Command(acted.rear_speed, steer)
-            x_next = np.asarray(native(plant_function(self.vehicle))(self._x, [start.rear_speed, steer], self.dt))
+            x_next = np.asarray(self._step(self._x, [start.rear_speed, steer], self.dt))
             end = start
         else:
             start = Command(self.rear_speed, self.front_steer)
             cmd = [acted.rear_speed, acted.front_steer]
-            step = native(actuated_plant_function(self.vehicle))  # compiled once per process (and vehicle)
-            out = step(self._x, [self.front_steer, self.rear_speed], cmd, self._par)
+            out = self._step(self._x, [self.front_steer, self.rear_speed], cmd, self._par)
             x_next = np.asarray(out[0])
             act = np.asarray(out[1]).ravel()
             end = Command(float(act[1]), float(act[0]))
