@@ -244,3 +244,21 @@ def test_a_plant_with_a_compiled_step_pickles_and_steps_the_same(jit_cache):
     for command in (Command(-0.5, 0.2), Command(-1.0, -0.3)):
         assert plant.apply(command) == copy.apply(command)
     np.testing.assert_array_equal(plant.state.as_array(), copy.state.as_array())
+
+
+def test_compiling_the_planners_rollouts_does_not_eat_its_time_limit(jit_cache):
+    """On a cold cache the planner's batch functions compile (seconds) before its clock starts: the first
+    plan is the plan a warm cache gives, not a timeout or a poorer path."""
+    from hitchpark.control.planner import PlannerSettings, plan
+    from hitchpark.model.state import State
+
+    cache, _ = jit_cache
+    assert not cache.exists()
+    settings = PlannerSettings(time_limit_s=1.0)
+    start = State(12.0, 2.0, math.radians(10.0), 0.0)
+    cold = plan(VehicleTrailer(), start, settings=settings)
+    assert any(cache.iterdir()), "the rollouts were compiled"
+    warm = plan(VehicleTrailer(), start, settings=settings)
+    assert cold.status == warm.status == "found"
+    for column, values in warm.path.items():
+        np.testing.assert_array_equal(cold.path[column], values, err_msg=column)

@@ -58,7 +58,6 @@ def plan(
     closes the last centimetres. Never raises for a hard problem: ``status`` says ``no_path`` or
     ``timeout``. Bad arguments raise :class:`~hitchpark.checks.InputError`.
     """
-    began = time.perf_counter()
     vehicle = check_vehicle(vehicle)
     check_state(vehicle, start)
     goal = check_goal(goal)
@@ -69,6 +68,8 @@ def plan(
         raise InputError(
             f"planner.hitch_margin must be < max_hitch ({vehicle.max_hitch:g} rad), got {settings.hitch_margin:g}"
         )
+    _prepare(vehicle, goal, settings)
+    began = time.perf_counter()
     expanded = 0
     for refinement in range(REFINEMENTS + 1):
         search = _Search(vehicle, start, goal, scene, settings, began)
@@ -85,6 +86,21 @@ def plan(
             hitch_bins=min(3600, settings.hitch_bins * 2),
         )
     return result  # pragma: no cover (the loop returns)
+
+
+def _prepare(vehicle: VehicleTrailer, goal: Pose, settings: PlannerSettings) -> None:
+    """Build the batch rollouts a search uses before its clock starts.
+
+    They are compiled to C once per machine (cached on disk, :func:`~hitchpark.native.native`) and loaded
+    once per process; that set-up is not planning, and must not eat a search's time limit: a first plan
+    on a cold cache would otherwise find another path than the same plan on a warm one.
+    """
+    PrimitiveBatch(
+        vehicle, OPENING_FORWARD_M, round(OPENING_FORWARD_M / settings.sample_step_m), settings.steer_samples
+    )
+    PrimitiveBatch(vehicle, settings.primitive_length_m, settings.samples, 2 * settings.steer_samples)
+    if settings.shot_length_m:
+        EndGame(vehicle, goal, settings)
 
 
 class _Search:
