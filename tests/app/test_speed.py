@@ -8,11 +8,12 @@ import time
 import numpy as np
 import pytest
 
-from hitchpark.app.bench import BENCH_OCPS, run_bench
+from hitchpark.app import bench as bench_module
+from hitchpark.app.bench import BENCH_OCPS, bench_table, run_bench
 from hitchpark.app.realtime import WallClock, run_realtime
 from hitchpark.cli import EXIT_BAD_INPUT, main
 from hitchpark.maneuver import park
-from hitchpark.maneuver.scenario import builtin_scenario
+from hitchpark.maneuver.scenario import OBSTACLE_SUITE, builtin_scenario
 
 ROUTE_KEYS = {"median_ms", "p99_ms", "max_ms", "cpu_median_ms", "failures", "speedup_vs_ipopt"}
 
@@ -47,6 +48,20 @@ def test_bench_drives_the_paper_scenarios_with_each_route(paper_bench):
         assert abs(got["orientation_deg"] - ref["orientation_deg"]) < 0.01
 
 
+def test_the_obstacle_ocp_is_benched_on_the_scenes_and_a_slow_route_is_cut_short(monkeypatch):
+    starts = BENCH_OCPS["obstacles"].starts(7)
+    assert [s.name for s in starts[:5]] == list(OBSTACLE_SUITE) and len(starts) == 7
+    assert all(not s.scene.is_empty for s in starts)
+    monkeypatch.setattr(bench_module, "ROUTE_BUDGET_S", 0.05)  # the routes but IPOPT stop after 50 ms of calls
+    bench = run_bench(["obstacles"], ["ipopt", "fatrop"], n_starts=1, horizons=())["obstacles"]
+    assert bench.starts == 1 and bench.problems > 50  # the driveway's NMPC stage
+    ipopt, fatrop = bench.routes["ipopt"], bench.routes["fatrop"]
+    assert ipopt.calls == bench.problems and ipopt.failures == 0
+    assert 0 < fatrop.calls < bench.problems and fatrop.failures == 0
+    assert fatrop.max_move_diff < 1e-3  # the same optimum as IPOPT's where both ran
+    assert f"first {fatrop.calls} of {bench.problems}" in bench_table({"obstacles": bench})
+
+
 def test_cli_bench_writes_the_schema(tmp_path, capsys):
     out = tmp_path / "bench.json"
     argv = ["bench", "--json", str(out), "--ocp", "paper", "--routes", "ipopt", "--starts", "1", "--no-scaling"]
@@ -67,7 +82,7 @@ def test_cli_bench_writes_the_schema(tmp_path, capsys):
     ("argv", "match"),
     [
         (["--routes", "cplex"], "--routes must name routes among"),
-        (["--ocp", "obstacles,paper"], "--ocp must name OCPs among"),
+        (["--ocp", "corridor,paper"], "--ocp must name OCPs among"),
         (["--starts", "0"], "--starts"),
         (["--routes", ","], "--routes must list names"),
     ],

@@ -16,6 +16,7 @@ from hitchpark.control.generated import GeneratedNLP
 from hitchpark.control.nmpc import NLPProblem
 from hitchpark.control.solvers import ROUTES, make_solver
 from hitchpark.maneuver import builtin_scenarios, park
+from hitchpark.maneuver.scenario import builtin_scenario
 
 
 def _recorded(kind: str, scenario: int, every: int) -> tuple[object, list[NLPProblem]]:
@@ -38,6 +39,23 @@ def full_problems():
     return _recorded("full", 2, 5)
 
 
+@pytest.fixture(scope="module")
+def obstacle_problems():
+    """The obstacle OCP's problems (the full model keeping clear of the scene) while parking at the campsite."""
+    sc = builtin_scenario("campsite")
+    controller = make_nmpc(sc.vehicle, sc.settings.nmpc)
+    controller.recorder = []
+    result = park(sc.vehicle, sc.start, sc.goal, sc.settings, controller=controller, plant=sc.plant, scene=sc.scene)
+    assert result.success
+    lines = np.array([p.p[6:] for p in controller.recorder]).reshape(len(controller.recorder), -1, 3)
+    assert np.any(lines[..., 2] != -1.0)  # the scene is near: some lines are in use
+    return controller, controller.recorder[::10]
+
+
+def _problems(ocp, paper_problems, full_problems, obstacle_problems):
+    return {"paper": paper_problems, "full": full_problems, "obstacles": obstacle_problems}[ocp]
+
+
 def _solve_all(solver, problems):
     out = []
     for problem in problems:
@@ -46,10 +64,14 @@ def _solve_all(solver, problems):
     return out
 
 
-@pytest.mark.parametrize("route", sorted(ROUTES))
-@pytest.mark.parametrize("ocp", ["paper", "full"])
-def test_every_route_reaches_the_reference_optimum(route, ocp, paper_problems, full_problems):
-    controller, problems = paper_problems if ocp == "paper" else full_problems
+# BFGS (no second derivatives) takes seconds per obstacle problem, with their hundreds of inequalities, and
+# runs out of iterations on some: ``hitchpark bench`` measures it there; the suite leaves it out.
+@pytest.mark.parametrize(
+    ("route", "ocp"),
+    [(r, o) for o in ("paper", "full", "obstacles") for r in sorted(ROUTES) if (r, o) != ("sqp_bfgs", "obstacles")],
+)
+def test_every_route_reaches_the_reference_optimum(route, ocp, paper_problems, full_problems, obstacle_problems):
+    controller, problems = _problems(ocp, paper_problems, full_problems, obstacle_problems)
     assert len(problems) >= 10
     tr = controller.transcription
     equality = list(tr.lbg == tr.ubg)
@@ -75,7 +97,7 @@ def test_a_structured_route_hands_the_free_steer_problem_to_a_general_one(fallba
 
     m = Measurement(0.0, State(6.0, 1.0, 0.3, 0.1), 0.0, 0.0)
     steer = controller.initial_steer(m, Pose())
-    assert controller._general is not None and controller._general is not controller.solver
+    assert controller._program.general is not None and controller._program.general is not controller.solver
     assert steer is not None and abs(steer) <= sc.vehicle.max_steer
     assert abs(steer) > 1e-3  # a start off the axis asks for the wheels turned
 
@@ -219,9 +241,11 @@ def test_a_matrix_argument_must_have_its_shape(jit_cache):
         f(a.ravel())  # a flat array would be read in some order: refused, as CasADi does
 
 
-@pytest.mark.parametrize(("route", "ocp"), [("fatrop_c", "full"), ("sqp_c", "paper")])
-def test_generated_routes_reach_the_reference_optimum(jit_cache, route, ocp, paper_problems, full_problems):
-    controller, problems = paper_problems if ocp == "paper" else full_problems
+@pytest.mark.parametrize(("route", "ocp"), [("fatrop_c", "full"), ("sqp_c", "paper"), ("fatrop_c", "obstacles")])
+def test_generated_routes_reach_the_reference_optimum(
+    jit_cache, route, ocp, paper_problems, full_problems, obstacle_problems
+):
+    controller, problems = _problems(ocp, paper_problems, full_problems, obstacle_problems)
     tr = controller.transcription
     equality = list(tr.lbg == tr.ubg)
     solver = make_solver(route, tr.nlp, equality)

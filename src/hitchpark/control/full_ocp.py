@@ -9,6 +9,10 @@ horizon, not only on the first step as Eqs. (56)-(57) can promise: |steer| <= ma
 the speed within [speed_min, 0] (reverse). The cost is Eq. (49)'s quadratic form on these
 states and inputs, with a terminal weight P. One RK4 step per sample keeps the prediction
 accurate at 1 m/s.
+
+Among obstacles (:class:`FullParkingProblem` given a :class:`~.clearance.ClearanceConstraints`) every
+predicted X_k also keeps the bodies on the free side of the scene's separating lines, which are
+parameters of each step: the obstacle OCP.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ import numpy as np
 from ..model.integrate import rk4
 from ..model.kinematics import full_rhs
 from ..model.vehicle import VehicleTrailer
+from .clearance import ClearanceConstraints
 from .ocp import NMPCSettings
 
 __all__ = ["FULL_OCP_INPUT", "FULL_OCP_STATE", "FullParkingProblem"]
@@ -41,9 +46,11 @@ class FullParkingProblem:
     n_x = 6
     n_u = 2
 
-    def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings):
+    def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings, clearance: ClearanceConstraints | None = None):
         self.vehicle = vehicle
         self.settings = settings
+        self.clearance = clearance
+        self.n_p = 0 if clearance is None else clearance.n_params
         self.path_constraints: list[Callable[[Any, Any, int], tuple[Any, Any, Any]]] = []
         self._Q = ca.diag(ca.DM(list(settings.Q or ())))
         self._R = ca.diag(ca.DM(list(settings.R or ())))
@@ -72,6 +79,10 @@ class FullParkingProblem:
     def terminal_cost(self, x: Any) -> Any:
         """X_N^T P X_N."""
         return ca.bilin(self._P, x, x)
+
+    def step_rows(self, x: Any, params: Any) -> tuple[list[Any], list[float], list[float]]:
+        """The separating lines of the scene at this step (none in open space)."""
+        return ([], [], []) if self.clearance is None else self.clearance.rows(x, params)
 
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Bounds on X_1..X_N: the jackknife limit with its margin, the steer limit, reverse speeds."""

@@ -18,12 +18,14 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from ..checks import InputError, check_instance
+from ..checks import InputError, check_instance, check_range
 from ..model.inverse import front_steer_from_virtual, rear_speed_from_trailer_speed, virtual_steer_from_front
 from ..model.kinematics import trailer_speed_from_rear_speed
 from ..model.plant import Command, Measurement
+from ..model.scene import Scene
 from ..model.state import Pose, State, check_goal, to_goal_frame
 from ..model.vehicle import VehicleTrailer, check_vehicle
+from .clearance import ClearanceConstraints
 from .full_ocp import SPEED, STEER, FullParkingProblem
 from .ocp import OCP, NMPCSettings, TrailerParkingProblem
 from .solvers import ROUTES, casadi_reason, make_solver
@@ -36,8 +38,8 @@ __all__ = ["FullNMPC", "NLPProblem", "NMPCStep", "TrailerNMPC", "make_nmpc"]
 class NLPProblem:
     """One NMPC solve as the controller posed it to its primary solver: replayable through any route.
 
-    ``p`` is the initial state (the parameter), ``w0`` the warm start, the rest the bounds of the
-    decision vector and of the constraints, all in the transcription's layout.
+    ``p`` is the initial state and the OCP's step parameters (the scene's lines), ``w0`` the warm start,
+    the rest the bounds of the decision vector and of the constraints, all in the transcription's layout.
     """
 
     p: np.ndarray
@@ -96,35 +98,82 @@ def _settings(vehicle: Any, settings: Any, kind: str) -> NMPCSettings:
     return settings
 
 
-class _RecedingHorizon:
-    """The solve machinery both NMPCs share: transcription, solver cascade, warm start."""
+@dataclass
+class _Program:
+    """An OCP made ready to solve: its transcription, the primary and fallback solvers."""
 
     problem: OCP
+    transcription: Any
+    solver: Any
+    fallback: Any
+    equality: list[bool]
+    general: Any = None  # a route for problems that relax an equality (built when first needed)
+
+
+def _program(problem: OCP) -> _Program:
+    s = problem.settings
+    transcription = make_transcription(problem)
+    equality = list(transcription.lbg == transcription.ubg)
+    assert s.solver is not None  # resolved per kind by NMPCSettings
+    try:
+        solver = make_solver(s.solver, transcription.nlp, equality, s.solver_options, jit=bool(s.jit))
+    except RuntimeError as exc:  # CasADi refuses an unknown or ill-typed option
+        raise InputError(f"nmpc.solver_options are not accepted by {s.solver}: {casadi_reason(exc)}") from None
+    fallback = s.fallback_solver
+    backup = make_solver(fallback, transcription.nlp, equality) if fallback and fallback != s.solver else None
+    return _Program(problem, transcription, solver, backup, equality)
+
+
+class _RecedingHorizon:
+    """The solve machinery both NMPCs share: transcription, solver cascade, warm start."""
 
     def __init__(self, vehicle: VehicleTrailer, problem: OCP):
         vehicle.require_hitch_offset()
         self.vehicle = vehicle
-        self.problem = problem
         self.settings = problem.settings
-        self.transcription = make_transcription(problem)
-        s = self.settings
-        equality = list(self.transcription.lbg == self.transcription.ubg)
-        assert s.solver is not None  # resolved per kind by NMPCSettings
-        try:
-            self.solver = make_solver(s.solver, self.transcription.nlp, equality, s.solver_options, jit=bool(s.jit))
-        except RuntimeError as exc:  # CasADi refuses an unknown or ill-typed option
-            raise InputError(f"nmpc.solver_options are not accepted by {s.solver}: {casadi_reason(exc)}") from None
-        fallback = s.fallback_solver
-        self.fallback = (
-            make_solver(fallback, self.transcription.nlp, equality) if fallback and fallback != s.solver else None
-        )
-        self._equality = equality
-        self._general: Any = None  # a route for problems that relax an equality (built when first needed)
+        self._program = _program(problem)
         self._last_inputs: np.ndarray | None = None
         self._last_states: np.ndarray | None = None
         self._last_steer = 0.0
         #: Set to a list to record every problem posed to the primary solver (``hitchpark bench``).
         self.recorder: list[NLPProblem] | None = None
+
+    @property
+    def problem(self) -> OCP:
+        """The OCP solved now."""
+        return self._program.problem
+
+    @property
+    def transcription(self) -> Any:
+        return self._program.transcription
+
+    @property
+    def solver(self) -> Any:
+        """The primary solver of the OCP solved now."""
+        return self._program.solver
+
+    @solver.setter
+    def solver(self, solver: Any) -> None:
+        self._program.solver = solver
+
+    @property
+    def fallback(self) -> Any:
+        """The fallback solver of the OCP solved now (None: none)."""
+        return self._program.fallback
+
+    @fallback.setter
+    def fallback(self, solver: Any) -> None:
+        self._program.fallback = solver
+
+    def _step_parameters(self, warm: np.ndarray, x0: np.ndarray) -> np.ndarray:
+        """The OCP's parameters of each prediction step, from the warm start (none unless an OCP has some)."""
+        return np.zeros(0)
+
+    def _cold_start(
+        self, x0: np.ndarray, guess: np.ndarray, u_min: np.ndarray, u_max: np.ndarray, free: Any
+    ) -> np.ndarray:
+        """The warm start when there is no previous plan: ``guess`` (the cold guess) unless an OCP does better."""
+        return guess
 
     def reset(self, front_steer: float = 0.0) -> None:
         """Forget the warm start (call at the start of each reverse stage)."""
@@ -149,11 +198,11 @@ class _RecedingHorizon:
         return self.transcription.guess(x0, inputs, states)
 
     def _solve(
-        self, solver: Any, x0: np.ndarray, w0: np.ndarray, bounds: tuple[np.ndarray, ...]
+        self, solver: Any, p: np.ndarray, w0: np.ndarray, bounds: tuple[np.ndarray, ...]
     ) -> tuple[bool, str, np.ndarray, float]:
         lbx, ubx, lbg, ubg = bounds
         try:
-            sol = solver(x0=w0, p=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+            sol = solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
             stats = solver.stats()
             ok, status = bool(stats.get("success", False)), str(stats.get("return_status", "unknown"))
             w, cost = np.asarray(sol["x"]).ravel(), float(sol["f"])
@@ -163,23 +212,24 @@ class _RecedingHorizon:
             ok, status = False, "non-finite solution"
         return ok, status, w, cost
 
-    def _general_solver(self) -> Any:
+    def _general_solver(self, program: _Program | None = None) -> Any:
         """The primary route, or a general one if the primary needs every equality of the transcription kept.
 
         A stage's free-steer problem (:meth:`FullNMPC.initial_steer`, once per stage, standing still) frees
         the equality X_0[steer] = p[steer]; a structure-exploiting route such as fatrop cannot take that.
         """
         assert self.settings.solver is not None
+        program = program or self._program
         if not ROUTES[self.settings.solver].structured:
-            return self.solver
-        if self._general is None:
+            return program.solver
+        if program.general is None:
             general = self.settings.fallback_solver
             if general is None or ROUTES[general].structured:
                 general = "ipopt"
-            self._general = self.fallback if general == self.settings.fallback_solver and self.fallback else None
-            if self._general is None:
-                self._general = make_solver(general, self.transcription.nlp, self._equality)
-        return self._general
+            program.general = program.fallback if general == self.settings.fallback_solver else None
+            if program.general is None:
+                program.general = make_solver(general, program.transcription.nlp, program.equality)
+        return program.general
 
     def _fallback_structured(self) -> bool:
         fallback = self.settings.fallback_solver
@@ -190,31 +240,38 @@ class _RecedingHorizon:
         x0: np.ndarray,
         u_min: np.ndarray,
         u_max: np.ndarray,
-        bounds: tuple[np.ndarray, ...],
-        relaxed: bool = False,
+        free: dict[int, tuple[float, float]] | None = None,
     ) -> tuple[bool, str, np.ndarray, np.ndarray, float, float]:
         """Primary solver, then the fallback, then a cold start; returns ok, status, states, inputs, cost, ms.
 
-        ``relaxed``: the bounds free an equality of the transcription (see :meth:`_general_solver`).
+        ``free``: components of X_0 freed within bounds (:meth:`.Transcription.bounds`); such a problem
+        relaxes an equality of the transcription (see :meth:`_general_solver`).
         """
         t0 = time.perf_counter()
+        relaxed = bool(free)
+        bounds = self.transcription.bounds(u_min, u_max, free)
+        cold = self._last_inputs is None
         warm = self._initial_guess(x0, u_min, u_max)
+        if cold:
+            warm = self._cold_start(x0, warm, u_min, u_max, free)
+        p = np.concatenate([x0, self._step_parameters(warm, x0)])
         primary = self._general_solver() if relaxed else self.solver
         if self.recorder is not None and primary is self.solver:
-            self.recorder.append(NLPProblem(*(np.array(a, dtype=float) for a in (x0, warm, *bounds))))
-        ok, status, w, cost = self._solve(primary, x0, warm, bounds)
+            self.recorder.append(NLPProblem(*(np.array(a, dtype=float) for a in (p, warm, *bounds))))
+        ok, status, w, cost = self._solve(primary, p, warm, bounds)
         # The fast primary solver can stall where the interior-point fallback does not (a structured
         # fallback cannot take a relaxed problem; the same solver again would answer the same).
         fallback = self.fallback
         if fallback is primary or (relaxed and fallback is not None and self._fallback_structured()):
             fallback = None
         if not ok and fallback is not None:
-            ok, status, w, cost = self._solve(fallback, x0, warm, bounds)
-        if not ok and self._last_inputs is not None:
+            ok, status, w, cost = self._solve(fallback, p, warm, bounds)
+        if not ok and not cold:
             # A warm start can mislead the solver; one last try from the cold guess before giving up.
             self._last_inputs = self._last_states = None
-            cold = self._initial_guess(x0, u_min, u_max)
-            ok, status, w, cost = self._solve(fallback or primary, x0, cold, bounds)
+            guess = self._cold_start(x0, self._initial_guess(x0, u_min, u_max), u_min, u_max, free)
+            p = np.concatenate([x0, self._step_parameters(guess, x0)])
+            ok, status, w, cost = self._solve(fallback or primary, p, guess, bounds)
         solve_ms = 1e3 * (time.perf_counter() - t0)
         states, inputs = self.transcription.unpack(w, x0)
         return ok, status, states, inputs, cost, solve_ms
@@ -271,9 +328,7 @@ class TrailerNMPC(_RecedingHorizon):
         x0 = np.array(to_goal_frame(goal, x_trailer, y_trailer, yaw_trailer), dtype=float)
         assert isinstance(self.problem, TrailerParkingProblem)
         u_min, u_max = self.problem.input_bounds(hitch)  # Eqs. (56)-(57) at the current hitch angle
-        ok, status, states, inputs, cost, solve_ms = self._solve_cascade(
-            x0, u_min, u_max, self.transcription.bounds(u_min, u_max)
-        )
+        ok, status, states, inputs, cost, solve_ms = self._solve_cascade(x0, u_min, u_max)
         if not ok:
             return self._stop(status, cost, solve_ms, states, inputs)
         v_t, d_t = inputs[0]
@@ -304,9 +359,69 @@ class FullNMPC(_RecedingHorizon):
         settings = _settings(vehicle, settings, "full")
         problem = FullParkingProblem(vehicle, settings)
         super().__init__(vehicle, problem)
+        self._open = self._program  # the OCP of open space
+        self._among: _Program | None = None  # the obstacle OCP, built when first needed
+        self._goal = Pose()
         x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
         # One controller sample of the model: for the commands in flight and for the first move of a plan.
         self._model_step = ca.Function("model_step", [x, u], [problem.discrete_dynamics(x, u, settings.dt)])
+
+    def keep_clear(self, scene: Scene, clearance_m: float) -> None:
+        """Keep the bodies ``clearance_m`` from ``scene`` over the horizon from now on (the obstacle OCP, with
+        ``nmpc.obstacle_planes`` lines per body and step, :mod:`.clearance`); an empty scene, or no planes,
+        solves the OCP of open space."""
+        check_instance("scene", scene, Scene, "hitchpark.model.Scene(obstacles, area)")
+        check_range("clearance_m", clearance_m, 0.0, 10.0, unit="m")
+        self.reset(self._last_steer)
+        if scene.is_empty or self.settings.obstacle_planes == 0:
+            self._program = self._open
+            return
+        if self._among is None:
+            lines = ClearanceConstraints(self.vehicle, self.settings.obstacle_planes)
+            self._among = _program(FullParkingProblem(self.vehicle, self.settings, lines))
+        assert isinstance(self._among.problem, FullParkingProblem) and self._among.problem.clearance is not None
+        self._among.problem.clearance.use(scene, clearance_m)
+        self._program = self._among
+
+    def _step_parameters(self, warm: np.ndarray, x0: np.ndarray) -> np.ndarray:
+        assert isinstance(self.problem, FullParkingProblem)
+        lines = self.problem.clearance
+        if lines is None:
+            return np.zeros(0)
+        states, _ = self.transcription.unpack(warm, x0)
+        return lines.parameters(self._goal, np.vstack([x0[None, :], states[1:]]))
+
+    def _cold_start(
+        self, x0: np.ndarray, guess: np.ndarray, u_min: np.ndarray, u_max: np.ndarray, free: Any
+    ) -> np.ndarray:
+        """Among obstacles, a plan to draw the scene's lines around when there is no previous one.
+
+        Lines drawn around the cold guess (reverse with the steer held) can shut out every plan: a line
+        at a corner the guess passes too close leaves no room where the plan will be. So the plan of
+        open space comes first (clear wherever the car can be clear; it meets every line drawn around
+        it when it is). Where it passes too close, the obstacle OCP is solved around it, and while that
+        fails, again around the general solver's last iterate (up to :data:`COLD_ROUNDS` rounds): once a
+        round succeeds, its plan meets the lines drawn around it, and the warm-started steps that follow
+        keep it so.
+        """
+        if self._program is self._open:
+            return guess
+        bounds = self._open.transcription.bounds(u_min, u_max, free)
+        solver = self._general_solver(self._open) if free else self._open.solver
+        ok, _, w, _ = self._solve(solver, x0, guess, bounds)
+        if not ok:
+            w = guess
+        bounds = self.transcription.bounds(u_min, u_max, free)
+        general = self._general_solver()
+        for _ in range(COLD_ROUNDS):
+            p = np.concatenate([x0, self._step_parameters(w, x0)])
+            ok, _, iterate, _ = self._solve(general, p, w, bounds)
+            if not np.all(np.isfinite(iterate)):
+                break
+            w = iterate
+            if ok:
+                break
+        return w
 
     def _cold_inputs(self) -> np.ndarray:
         # Accelerate in reverse, straight: from standing still a zero input sees no gain in moving.
@@ -334,7 +449,8 @@ class FullNMPC(_RecedingHorizon):
 
     def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command] = ()) -> NMPCStep:
         check_instance("measurement", measurement, Measurement)
-        x0 = self._state(measurement, check_goal(goal), in_flight)
+        self._goal = check_goal(goal)
+        x0 = self._state(measurement, self._goal, in_flight)
         refused = self._refuse(x0, x0[3])
         if refused is not None:
             return refused
@@ -342,7 +458,8 @@ class FullNMPC(_RecedingHorizon):
 
     def initial_steer(self, measurement: Measurement, goal: Pose) -> float | None:
         """The steer the plan would start with if the wheels could be set freely, chosen standing still."""
-        x0 = self._state(measurement, goal, ())
+        self._goal = check_goal(goal)
+        x0 = self._state(measurement, self._goal, ())
         if self._refuse(x0, x0[3]) is not None:
             return None
         step = self._plan(x0, free_steer=True)
@@ -357,9 +474,7 @@ class FullNMPC(_RecedingHorizon):
         v = self.vehicle
         u_min, u_max = self.problem.input_bounds()
         free = {STEER: (-v.max_steer, v.max_steer)} if free_steer else None
-        ok, status, states, inputs, cost, solve_ms = self._solve_cascade(
-            x0, u_min, u_max, self.transcription.bounds(u_min, u_max, free), relaxed=free_steer
-        )
+        ok, status, states, inputs, cost, solve_ms = self._solve_cascade(x0, u_min, u_max, free)
         if not ok:
             return self._stop(status, cost, solve_ms, states, inputs)
         first = x0 + self.settings.dt * np.concatenate([np.zeros(4), inputs[0]])  # the rates held for one sample
@@ -377,6 +492,9 @@ class FullNMPC(_RecedingHorizon):
         virtual = float(virtual_steer_from_front(v, hitch, steer))  # Eq. (56)
         return NMPCStep(trailer_speed, virtual, speed, steer, cost, solve_ms, True, stop, status, states, inputs)
 
+
+#: Rounds of the obstacle OCP from a cold start, each around the last one's iterate (:meth:`FullNMPC._cold_start`).
+COLD_ROUNDS = 3
 
 #: The NMPC of each ``NMPCSettings.kind``.
 NMPC_CLASSES: dict[str, type[TrailerNMPC] | type[FullNMPC]] = {"paper": TrailerNMPC, "full": FullNMPC}

@@ -144,6 +144,10 @@ class NMPCSettings:
         paper kind only).
     solver_options : dict
         Extra options passed to CasADi's ``nlpsol`` on top of the defaults (part of equality).
+    obstacle_planes : int
+        Among obstacles the full NMPC keeps every body clear of the scene over its horizon: this many
+        separating lines per body and prediction step, from the segments of the scene nearest to its warm
+        start (:mod:`.clearance`). 0: the obstacles are left to the guard outside the NMPC. Paper kind: unused.
     jit : bool or None
         Compile the OCP's functions to C, cached on disk (:mod:`.compiled`); about twice as fast a
         solve for the full kind. None: the kind's (full on, paper off). ``HITCHPARK_JIT=0`` or a
@@ -167,6 +171,7 @@ class NMPCSettings:
     fallback_solver: str | None = "ipopt"
     transcription: str = "multiple_shooting"
     solver_options: dict[str, Any] = field(default_factory=dict, hash=False)
+    obstacle_planes: int = 3
     jit: bool | None = None
 
     def __post_init__(self) -> None:
@@ -184,6 +189,7 @@ class NMPCSettings:
         put("prediction_dt", check_range("nmpc.prediction_dt", self.prediction_dt, self.dt, 2.0, unit="s (>= dt)"))
         put("horizon", check_int("nmpc.horizon", defaults["horizon"] if self.horizon is None else self.horizon, 1, 500))
         put("max_steps", check_int("nmpc.max_steps", self.max_steps, 1, 1_000_000))
+        put("obstacle_planes", check_int("nmpc.obstacle_planes", self.obstacle_planes, 0, 20))
         # Q, P > 0 as Eq. (49) asks for the pose; R may have zeros (Table 4: R = diag(0, 0.1)).
         put("Q", _diag("nmpc.Q", defaults["Q"] if self.Q is None else self.Q, n_x, positive=self.kind == "paper"))
         put("P", _diag("nmpc.P", defaults["P"] if self.P is None else self.P, n_x, positive=self.kind == "paper"))
@@ -233,9 +239,15 @@ class OCP(Protocol):
     n_x: int
     n_u: int
     path_constraints: list[PathConstraint]
+    #: Parameters of each prediction step k = 1..N beyond the initial state (the NLP's ``p`` is X_0, then these).
+    n_p: int
 
     @property
     def horizon(self) -> int: ...
+
+    def step_rows(self, x: Any, params: Any) -> tuple[list[Any], list[float], list[float]]:
+        """Constraint rows ``(expressions, lower, upper)`` on X_k (k = 1..N) given that step's parameters."""
+        ...
 
     def discrete_dynamics(self, x: Any, u: Any) -> Any: ...
 
@@ -265,6 +277,7 @@ class TrailerParkingProblem:
     input_names = TRAILER_INPUT
     n_x = 3
     n_u = 2
+    n_p = 0
 
     def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings | None = None):
         vehicle.require_hitch_offset()
@@ -300,6 +313,10 @@ class TrailerParkingProblem:
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
         """Bounds on X_1..X_N: none in the paper's OCP (Eq. 50 bounds only the inputs)."""
         return None
+
+    def step_rows(self, x: Any, params: Any) -> tuple[list[Any], list[float], list[float]]:
+        """None: the paper's OCP has no parameters beyond X_0."""
+        return [], [], []
 
     def input_bounds(self, hitch: float) -> tuple[np.ndarray, np.ndarray]:
         """U_min, U_max at the current hitch angle: speed bounds and Eqs. (56)-(57)."""

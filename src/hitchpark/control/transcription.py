@@ -1,7 +1,8 @@
 """Transcriptions of :class:`~.ocp.TrailerParkingProblem` into a nonlinear program.
 
 A transcription turns the OCP into CasADi's ``{x, p, f, g}`` with the initial
-state as the parameter ``p``, and knows how to lay out bounds, initial guesses
+state as the parameter ``p`` (followed by the OCP's ``n_p`` parameters of each
+prediction step k = 1..N, whose rows on X_k follow X_k's dynamics), and knows how to lay out bounds, initial guesses
 and solutions. Eq. (51) is the single-shooting form (inputs only); multiple
 shooting keeps the states as unknowns tied by the dynamics as equality
 constraints, which is sparser and better conditioned over long horizons.
@@ -70,7 +71,9 @@ class MultipleShooting(Transcription):
     def __init__(self, problem: OCP):
         super().__init__(problem)
         N, nx, nu = problem.horizon, problem.n_x, problem.n_u
-        p = ca.SX.sym("x0", nx)
+        x0 = ca.SX.sym("x0", nx)
+        extra = ca.SX.sym("P", problem.n_p * N)
+        p = ca.vertcat(x0, extra)
         xs = [ca.SX.sym(f"X{k}", nx) for k in range(N + 1)]
         us = [ca.SX.sym(f"U{k}", nu) for k in range(N)]
         w: list[Any] = []
@@ -78,13 +81,28 @@ class MultipleShooting(Transcription):
             w += [xs[k], us[k]]
         w.append(xs[N])
         cost = sum(problem.stage_cost(xs[k], us[k]) for k in range(N)) + problem.terminal_cost(xs[N])  # Eq. (49)
-        g: list[Any] = [xs[0] - p]  # X_0 = p: the first nx constraints
-        g += [xs[k + 1] - problem.discrete_dynamics(xs[k], us[k]) for k in range(N)]  # Eq. (48)
-        n_eq = nx * (N + 1)
+        g: list[Any] = [xs[0] - x0]  # X_0 = p: the first nx constraints
+        lbg, ubg = [np.zeros(nx)], [np.zeros(nx)]
+
+        def add(k: int) -> None:  # the rows on X_k (k >= 1), with their step's parameters
+            rows, lo, hi = problem.step_rows(xs[k], extra[(k - 1) * problem.n_p : k * problem.n_p])
+            g.extend(rows)
+            lbg.append(np.array(lo, dtype=float))
+            ubg.append(np.array(hi, dtype=float))
+
+        # fatrop's structure detection takes the rows on X_k after the dynamics of stage k (measured: after
+        # those of stage k - 1 it finds twice the stages and refuses).
+        for k in range(N):
+            g.append(xs[k + 1] - problem.discrete_dynamics(xs[k], us[k]))  # Eq. (48)
+            lbg.append(np.zeros(nx))
+            ubg.append(np.zeros(nx))
+            if k > 0:
+                add(k)
+        add(N)
         pg, plb, pub = self._path_constraints(xs, us)
         self.nlp = {"x": ca.vertcat(*w), "p": p, "f": cost, "g": ca.vertcat(*g, *pg)}
-        self.lbg = np.concatenate([np.zeros(n_eq), _flat(plb)])
-        self.ubg = np.concatenate([np.zeros(n_eq), _flat(pub)])
+        self.lbg = np.concatenate([*lbg, _flat(plb)])
+        self.ubg = np.concatenate([*ubg, _flat(pub)])
         stride = nx + nu
         self._x_idx = np.array([[k * stride + i for i in range(nx)] for k in range(N + 1)])
         self._u_idx = np.array([[k * stride + nx + i for i in range(nu)] for k in range(N)])
@@ -138,9 +156,11 @@ class SingleShooting(Transcription):
     def __init__(self, problem: OCP):
         super().__init__(problem)
         N, nx, nu = problem.horizon, problem.n_x, problem.n_u
-        p = ca.SX.sym("x0", nx)
+        x0 = ca.SX.sym("x0", nx)
+        extra = ca.SX.sym("P", problem.n_p * N)
+        p = ca.vertcat(x0, extra)
         us = [ca.SX.sym(f"U{k}", nu) for k in range(N)]
-        xs = [p]
+        xs = [x0]
         for k in range(N):
             xs.append(problem.discrete_dynamics(xs[k], us[k]))  # Eq. (48)
         cost = sum(problem.stage_cost(xs[k], us[k]) for k in range(N)) + problem.terminal_cost(xs[N])  # Eq. (51)
@@ -153,11 +173,16 @@ class SingleShooting(Transcription):
                 sg += [xs[k][i] for i in rows]
                 slb += [x_bounds[0][i] for i in rows]
                 sub += [x_bounds[1][i] for i in rows]
+        for k in range(1, N + 1):
+            rows_k, lo, hi = problem.step_rows(xs[k], extra[(k - 1) * problem.n_p : k * problem.n_p])
+            sg += rows_k
+            slb += lo
+            sub += hi
         w = ca.vertcat(*us)
         self.nlp = {"x": w, "p": p, "f": cost, "g": ca.vertcat(*sg, *pg)}
         self.lbg = np.concatenate([np.array(slb, dtype=float), _flat(plb)])
         self.ubg = np.concatenate([np.array(sub, dtype=float), _flat(pub)])
-        self._rollout = ca.Function("rollout", [w, p], [ca.horzcat(*xs).T])
+        self._rollout = ca.Function("rollout", [w, x0], [ca.horzcat(*xs).T])
         self._N, self._nu = N, nu
 
     def bounds(

@@ -239,6 +239,11 @@ def _errors_deg(goal: Pose, state: np.ndarray) -> tuple[float, float, float]:
     return dist, math.degrees(orient), math.degrees(state[3])
 
 
+#: The NMPC's predictions keep this much more than the guard asks [m]: the guard then never stops a plan
+#: the solver kept clear to its tolerance.
+CLEARANCE_SPARE_M = 0.01
+
+
 def make_process(
     vehicle: VehicleTrailer,
     settings: ManeuverSettings,
@@ -248,7 +253,13 @@ def make_process(
 ) -> Process:
     """The process ``settings.process`` names (``auto``: planned with the full NMPC, staged with the paper's)."""
     nmpc = nmpc or make_nmpc(vehicle, settings.nmpc)
-    if settings.process.resolved(settings.nmpc.kind) == "planned":
+    planned = settings.process.resolved(settings.nmpc.kind) == "planned"
+    if isinstance(nmpc, FullNMPC):
+        # The planned process keeps the NMPC's predictions as clear of the scene as its guard asks (the
+        # obstacle OCP); the staged one does not see the scene.
+        need = settings.success.min_clearance_m + settings.process.guard_margin_m + CLEARANCE_SPARE_M
+        nmpc.keep_clear(scene if planned else Scene(), need)
+    if planned:
         return PlannedProcess(vehicle, settings, scene, nmpc, delay)
     return StagedProcess(make_stages(vehicle, settings, nmpc), hand_over=settings.nmpc.kind != "paper")
 

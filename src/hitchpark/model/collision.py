@@ -37,7 +37,7 @@ import numpy as np
 import shapely
 
 from ..checks import InputError, check_instance, check_number, check_range, check_values
-from .geometry import body_outlines
+from .geometry import body_corners, body_outlines, has_tow_bar
 from .scene import Scene
 from .state import wrap_angle
 from .vehicle import VehicleTrailer, check_vehicle
@@ -110,7 +110,7 @@ def body_shapes(vehicle: VehicleTrailer, state: Any) -> dict[str, shapely.Geomet
         "trailer": shapely.Polygon(outlines["trailer"]),
         "drawbar": shapely.LineString(outlines["drawbar"]),
     }
-    if _has_tow_bar(vehicle):
+    if has_tow_bar(vehicle):
         shapes["tow_bar"] = shapely.LineString(outlines["tow_bar"])
     return shapes
 
@@ -233,11 +233,6 @@ def _config(state: Any) -> tuple[float, float, float, float]:
     return x, y, yaw, hitch
 
 
-def _has_tow_bar(vehicle: VehicleTrailer) -> bool:
-    """The tow bar sticks out behind the vehicle body (the hitch lies behind its rear)."""
-    return vehicle.hitch_offset > vehicle.rear_overhang
-
-
 def _nearest_points(a: shapely.Geometry, b: shapely.Geometry) -> np.ndarray:
     return np.asarray(shapely.get_coordinates(shapely.shortest_line(a, b)), dtype=float)
 
@@ -349,31 +344,13 @@ class SceneChecker:
         return np.where(shapely.contains_xy(self.area, x, y), distance, 0.0)
 
 
-def _rectangles(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, back: float, front: float, half: float) -> np.ndarray:
-    """Closed rectangles, (m, 5, 2), as :func:`~.geometry.rectangle` makes one, for arrays of frames."""
-    local = np.array([[-back, -half], [front, -half], [front, half], [-back, half], [-back, -half]])
-    c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
-    px = x[:, None] + c * local[:, 0] - s * local[:, 1]
-    py = y[:, None] + s * local[:, 0] + c * local[:, 1]
-    return np.stack([px, py], -1)
-
-
 def _body_geometries(vehicle: VehicleTrailer, configs: np.ndarray) -> np.ndarray:
     """The bodies of :func:`body_shapes` for many configurations at once: an (m, b) array of geometries."""
-    v = vehicle
-    x, y, yaw, hitch = configs.T
-    c, s = np.cos(yaw), np.sin(yaw)
-    hx, hy = x + v.trailer_length * c, y + v.trailer_length * s  # Eqs. (25)-(26)
-    yaw_v = yaw + hitch
-    cv, sv = np.cos(yaw_v), np.sin(yaw_v)
-    rx, ry = hx + v.hitch_offset * cv, hy + v.hitch_offset * sv  # Eqs. (27)-(28)
-    car_front = v.wheelbase + v.front_overhang
-    car = shapely.polygons(_rectangles(rx, ry, yaw_v, v.rear_overhang, car_front, v.vehicle_width / 2))
-    trailer = shapely.polygons(_rectangles(x, y, yaw, v.trailer_rear, v.trailer_front, v.trailer_width / 2))
-    hitch_xy = np.stack([hx, hy], -1)
-    nose = np.stack([x + v.trailer_front * c, y + v.trailer_front * s], -1)
-    columns = [car, trailer, shapely.linestrings(np.stack([nose, hitch_xy], 1))]
-    if _has_tow_bar(v):
-        bumper = np.stack([rx - v.rear_overhang * cv, ry - v.rear_overhang * sv], -1)
-        columns.append(shapely.linestrings(np.stack([bumper, hitch_xy], 1)))
+    corners = body_corners(vehicle, *np.asarray(configs, dtype=float).T)
+    columns = []
+    for points in corners.values():
+        xy = np.stack([np.stack(p, -1) for p in points], 1)  # (m, corners, 2)
+        columns.append(
+            shapely.polygons(np.concatenate([xy, xy[:, :1]], 1)) if len(points) > 2 else shapely.linestrings(xy)
+        )
     return np.stack(columns, axis=1)

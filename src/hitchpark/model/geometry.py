@@ -1,23 +1,28 @@
 """Planar geometry: the outlines of the bodies and of the parking space, in the world frame.
 
-Pure NumPy. Poses and the parking frame live in :mod:`.state` (re-exported here).
+NumPy, but for :func:`body_corners`, which evaluates on NumPy arrays and on CasADi symbols alike (the
+collision checks and the NMPC's obstacle constraints share it). Poses and the parking frame live in
+:mod:`.state` (re-exported here).
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
-from .kinematics import hitch_point, rear_axle_pose
+from .kinematics import hitch_point, ops, rear_axle_pose
 from .state import Pose, check_pose, to_goal_frame, wrap_angle
 from .vehicle import VehicleTrailer
 
 __all__ = [
     "Pose",
     "along",
+    "body_corners",
     "body_outlines",
     "check_pose",
+    "has_tow_bar",
     "parking_space",
     "rectangle",
     "to_goal_frame",
@@ -52,6 +57,43 @@ def along(x: float, y: float, yaw: float, distance: float, lateral: float = 0.0)
     return np.array([x + distance * c - lateral * s, y + distance * s + lateral * c])
 
 
+def has_tow_bar(vehicle: VehicleTrailer) -> bool:
+    """Whether the tow bar sticks out behind the vehicle body (the hitch lies behind its rear)."""
+    return vehicle.hitch_offset > vehicle.rear_overhang
+
+
+def body_corners(
+    vehicle: VehicleTrailer, x_trailer: Any, y_trailer: Any, yaw_trailer: Any, hitch: Any
+) -> dict[str, Any]:
+    """The corners of the convex bodies: ``{name: [(x, y), ...]}``, NumPy (arrays broadcast) or CasADi alike.
+
+    ``"vehicle"`` and ``"trailer"``: the body rectangles (as :func:`body_outlines` draws them), counter-
+    clockwise from the rear right; ``"drawbar"``: the trailer body front's centre and the hitch;
+    ``"tow_bar"`` (only when :func:`has_tow_bar`): the vehicle body rear's centre and the hitch. Every
+    body is the convex hull of its corners.
+    """
+    v = vehicle
+    m = ops(x_trailer, y_trailer, yaw_trailer, hitch)
+    x_h, y_h = hitch_point(v, x_trailer, y_trailer, yaw_trailer)  # Eqs. (25)-(26)
+    x_r, y_r, yaw_v = rear_axle_pose(v, x_trailer, y_trailer, yaw_trailer, hitch)  # Eqs. (27)-(28)
+
+    def box(x: Any, y: Any, yaw: Any, back: float, front: float, half: float) -> list[tuple[Any, Any]]:
+        c, s = m.cos(yaw), m.sin(yaw)
+        local = ((-back, -half), (front, -half), (front, half), (-back, half))
+        return [(x + a * c - b * s, y + a * s + b * c) for a, b in local]
+
+    c_t, s_t = m.cos(yaw_trailer), m.sin(yaw_trailer)
+    bodies = {
+        "vehicle": box(x_r, y_r, yaw_v, v.rear_overhang, v.wheelbase + v.front_overhang, v.vehicle_width / 2),
+        "trailer": box(x_trailer, y_trailer, yaw_trailer, v.trailer_rear, v.trailer_front, v.trailer_width / 2),
+        "drawbar": [(x_trailer + v.trailer_front * c_t, y_trailer + v.trailer_front * s_t), (x_h, y_h)],
+    }
+    if has_tow_bar(v):
+        back = v.rear_overhang
+        bodies["tow_bar"] = [(x_r - back * m.cos(yaw_v), y_r - back * m.sin(yaw_v)), (x_h, y_h)]
+    return bodies
+
+
 def body_outlines(
     vehicle: VehicleTrailer, x_trailer: float, y_trailer: float, yaw_trailer: float, hitch: float
 ) -> dict[str, np.ndarray]:
@@ -83,25 +125,18 @@ def body_outlines(
         ``"rear_axle"``, ``"trailer_axle"``: the axle centres, shape (2,).
     """
     x_t, y_t, yaw_t, d_psi = float(x_trailer), float(y_trailer), float(yaw_trailer), float(hitch)
-    x_h, y_h = hitch_point(vehicle, x_t, y_t, yaw_t)  # Eqs. (25)-(26)
-    x_r, y_r, yaw_v = rear_axle_pose(vehicle, x_t, y_t, yaw_t, d_psi)  # Eqs. (27)-(28)
-    x_r, y_r, yaw_v = float(x_r), float(y_r), float(yaw_v)
-    hitch_xy = np.array([float(x_h), float(y_h)])
-    vehicle_body = rectangle(
-        x_r,
-        y_r,
-        yaw_v,
-        vehicle.rear_overhang,
-        vehicle.wheelbase + vehicle.front_overhang,
-        vehicle.vehicle_width / 2,
-    )
-    trailer_body = rectangle(x_t, y_t, yaw_t, vehicle.trailer_rear, vehicle.trailer_front, vehicle.trailer_width / 2)
-    trailer_nose = along(x_t, y_t, yaw_t, vehicle.trailer_front)
+    corners = body_corners(vehicle, x_t, y_t, yaw_t, d_psi)
+    x_r, y_r, yaw_v = (float(c) for c in rear_axle_pose(vehicle, x_t, y_t, yaw_t, d_psi))  # Eqs. (27)-(28)
+    hitch_xy = np.array(corners["drawbar"][1], dtype=float)
     bumper = along(x_r, y_r, yaw_v, -min(vehicle.rear_overhang, vehicle.hitch_offset))
+
+    def closed(points: list[tuple[float, float]]) -> np.ndarray:
+        return np.array([*points, points[0]], dtype=float)
+
     return {
-        "vehicle": vehicle_body,
-        "trailer": trailer_body,
-        "drawbar": np.vstack([trailer_nose, hitch_xy]),
+        "vehicle": closed(corners["vehicle"]),
+        "trailer": closed(corners["trailer"]),
+        "drawbar": np.array(corners["drawbar"], dtype=float),
         "tow_bar": np.vstack([bumper, hitch_xy]),
         "hitch": hitch_xy,
         "rear_axle": np.array([x_r, y_r]),

@@ -1,0 +1,273 @@
+"""Obstacles inside the full NMPC: separating lines that keep every body clear of the scene over the horizon.
+
+The bodies are convex: the vehicle and trailer rectangles, the drawbar and the tow bar segments
+(:func:`~hitchpark.model.geometry.body_corners`). The scene is cut into convex pieces
+(:func:`convex_pieces`): each convex obstacle, the triangles of a non-convex one, and the triangles of
+the ground outside the area (near it). A body keeps ``c`` from a convex piece when a line separates
+them with ``c`` to spare: a unit normal ``n`` and a number ``h`` with ``n . q <= h`` at every vertex
+``q`` of the piece and ``n . p >= h + c`` at every corner ``p`` of the body.
+
+Each NMPC step fixes the lines from its warm start (the previous plan moved on by a sample): per
+prediction step k = 1..N and body, one line for each of the ``planes`` pieces nearest to the body there
+(within :data:`REACH_M`). Its normal is, of the outward normals of the piece's edges and the direction
+of the nearest points, the one with the widest gap to the body both there and where the car is now (the
+lesser of the two): the nearest points give the widest gap at step k, but a line through a corner,
+turned towards where the warm start passes it, or an edge's line across the way the car came, would hold
+the plan back from where it could safely be (behind the warm start along an obstacle), and a plan that
+must go slower than its warm start would find no room. Where the warm start overlaps the piece, the edge
+whose line it crosses least. ``h`` is the piece's
+largest ``n . q``. The OCP then asks ``n . p_i(X_k) >= h + c`` of every corner ``p_i``: linear in the
+corners, which are smooth in the state. A prediction that meets the lines keeps ``c`` from every piece
+that has one, never less. These numbers are parameters of the NLP, so one compiled solver serves every
+scene.
+
+The geometry is plain NumPy over all steps, bodies and pieces at once; the constraint rows are CasADi.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import shapely
+
+from ..model.geometry import body_corners
+from ..model.scene import Scene
+from ..model.state import Pose, to_goal_frame
+from ..model.vehicle import VehicleTrailer
+
+__all__ = ["REACH_M", "ClearanceConstraints", "convex_pieces", "separating_lines"]
+
+#: Segments farther than this from a body in the warm start get no line at that step [m]; a plan moves
+#: far less from one step to the next.
+REACH_M = 2.5
+
+#: An unused slot: 0 . p - (-1) >= 0 always holds.
+_UNUSED = (0.0, 0.0, -1.0)
+
+
+def _ccw(polygon: np.ndarray) -> np.ndarray:
+    ring = np.asarray(polygon, dtype=float)
+    b = np.roll(ring, -1, axis=0)
+    twice_area = float(np.sum(ring[:, 0] * b[:, 1] - b[:, 0] * ring[:, 1]))
+    return ring if twice_area > 0 else ring[::-1].copy()
+
+
+def _triangles(geometry: shapely.Geometry) -> list[np.ndarray]:
+    parts = shapely.get_parts(shapely.constrained_delaunay_triangles(geometry))
+    return [np.asarray(t.exterior.coords, dtype=float)[:-1] for t in parts]
+
+
+def convex_pieces(scene: Scene) -> list[np.ndarray]:
+    """The scene as convex polygons, each ``(v, 2)`` counter-clockwise, world frame.
+
+    Each convex obstacle is one piece, a non-convex one its constrained Delaunay triangles; outside the
+    area, the ground within :data:`REACH_M` and more of its bounds is cut into triangles.
+    """
+    pieces = []
+    for obstacle in scene.obstacles:
+        polygon = shapely.Polygon(obstacle.polygon)
+        if shapely.equals(polygon, shapely.convex_hull(polygon)):
+            pieces.append(obstacle.polygon)
+        else:
+            pieces += _triangles(polygon)
+    if scene.area is not None:
+        area = shapely.Polygon(scene.area.boundary)
+        ground = shapely.difference(shapely.box(*shapely.bounds(area.buffer(2.0 * REACH_M))), area)
+        pieces += _triangles(ground)
+    return [_ccw(p) for p in pieces]
+
+
+def _padded(pieces: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Pieces as one ``(j, v, 2)`` array (each one's last vertex repeated) and the mask of their real edges.
+
+    Edge i runs from vertex i to vertex i + 1 (the last to the first): the repeats add edges of zero length.
+    """
+    size = max(len(p) for p in pieces)
+    out = np.stack([np.vstack([p, np.repeat(p[-1:], size - len(p), axis=0)]) for p in pieces])
+    counts = np.array([len(p) for p in pieces])[:, None]
+    edge = np.arange(size)[None, :]
+    return out, (edge < counts - 1) | (edge == size - 1)
+
+
+def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+
+def _nearest_on(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The point of segment a-b nearest to p (all broadcast, last axis xy)."""
+    d = b - a
+    t = np.sum((p - a) * d, -1) / np.maximum(np.sum(d * d, -1), 1e-300)
+    return a + np.clip(t, 0.0, 1.0)[..., None] * d
+
+
+def separating_lines(
+    points: np.ndarray, ends: np.ndarray, free: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Distance, normal and offset of the line separating each convex body from each segment.
+
+    ``points``: the bodies' corners ``(k, c, 2)`` (c = 2: a segment; c > 2: a convex polygon,
+    counter-clockwise); ``ends``: segments ``(m, 2, 2)``; ``free``: their normals to the free side ``(m, 2)``.
+    Returns ``distance (k, m)``, ``n (k, m, 2)`` (unit, from the segment towards the body) and
+    ``h (k, m)`` = max over the segment's ends of ``n . q``; where a body overlaps a segment, distance 0
+    and ``n`` the segment's free normal.
+    """
+    k, c = points.shape[:2]
+    a, b = ends[None, None, :, 0], ends[None, None, :, 1]  # (1, 1, m, 2)
+    p = points[:, :, None, :]  # (k, c, 1, 2)
+    # Corners to the segment.
+    q = _nearest_on(p, a, b)  # (k, c, m, 2)
+    gap = np.hypot(*np.moveaxis(p - q, -1, 0))
+    # The segment's ends to the body's edges (a segment body: its one edge).
+    starts = points if c > 2 else points[:, :1]
+    stops = np.roll(points, -1, axis=1) if c > 2 else points[:, 1:]
+    e0, e1 = starts[:, :, None, None, :], stops[:, :, None, None, :]  # (k, e, 1, 1, 2)
+    tips = ends[None, None, :, :, :]  # (1, 1, m, 2, 2)
+    r = _nearest_on(tips, e0, e1)  # (k, e, m, 2, 2)
+    tip_gap = np.hypot(*np.moveaxis(tips - r, -1, 0))  # (k, e, m, 2)
+    # The nearest pair over both kinds.
+    i_corner = np.argmin(gap, axis=1)  # (k, m)
+    d_corner = np.take_along_axis(gap, i_corner[:, None], 1)[:, 0]
+    flat = tip_gap.transpose(0, 2, 1, 3).reshape(k, -1, tip_gap.shape[1] * 2)  # (k, m, e*2)
+    i_tip = np.argmin(flat, axis=2)
+    d_tip = np.take_along_axis(flat, i_tip[..., None], 2)[..., 0]
+    km = np.indices(i_corner.shape)
+    body_pt = np.where(
+        (d_corner <= d_tip)[..., None],
+        points[km[0], i_corner],
+        r.transpose(0, 2, 1, 3, 4).reshape(k, -1, tip_gap.shape[1] * 2, 2)[km[0], km[1], i_tip],
+    )
+    scene_pt = np.where((d_corner <= d_tip)[..., None], q[km[0], i_corner, km[1]], ends[km[1], i_tip % 2])
+    distance = np.minimum(d_corner, d_tip)
+    # Overlap: an edge of the body crosses the segment, or the segment lies inside the (polygon) body.
+    s0, s1 = starts[:, :, None, :], stops[:, :, None, :]  # (k, e, 1, 2)
+    o1 = _cross(b - a, s0 - a)  # (k, e, m)
+    o2 = _cross(b - a, s1 - a)
+    o3 = _cross(s1 - s0, a - s0)
+    o4 = _cross(s1 - s0, b - s0)
+    # Proper crossings only: where they touch (at an end, or collinear) some end lies on the other
+    # segment, and the distance is 0 already.
+    crossing = np.any((o1 * o2 < 0.0) & (o3 * o4 < 0.0), axis=1)  # (k, m)
+    if c > 2:
+        crossing |= np.all(o3 > 0.0, axis=1)  # the segment's first end inside: left of every edge
+    overlap = crossing | (distance < 1e-9)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        n = (body_pt - scene_pt) / distance[..., None]
+    n = np.where(overlap[..., None], free[None], n)
+    distance = np.where(overlap, 0.0, distance)
+    h = np.maximum(np.sum(n * ends[None, :, 0], -1), np.sum(n * ends[None, :, 1], -1))
+    return distance, n, h
+
+
+class ClearanceConstraints:
+    """The scene's separating lines as NLP parameters and constraint rows (see the module text).
+
+    ``planes``: lines per body and prediction step. The parameters of step k are, per body and line,
+    ``(n_x, n_y, h + c)``, in the parking frame of the goal.
+    """
+
+    def __init__(self, vehicle: VehicleTrailer, planes: int):
+        self.vehicle, self.planes = vehicle, int(planes)
+        self.bodies = tuple(body_corners(vehicle, 0.0, 0.0, 0.0, 0.0))
+        self.n_params = 3 * len(self.bodies) * self.planes  # per prediction step
+        self._scene: Scene | None = None
+        self._clearance = 0.0
+        self._pieces: tuple[np.ndarray, np.ndarray] | None = None
+        self._framed: tuple[Pose, np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    # -- CasADi: the rows of one prediction step --------------------------------------------------------
+
+    def rows(self, x: Any, params: Any) -> tuple[list[Any], list[float], list[float]]:
+        """``n . p_i(x) - (h + c) >= 0`` for every body corner and line; ``x`` the OCP state, ``params`` its step's."""
+        corners = body_corners(self.vehicle, x[0], x[1], x[2], x[3])
+        g: list[Any] = []
+        i = 0
+        for name in self.bodies:
+            for _ in range(self.planes):
+                nx, ny, offset = params[i], params[i + 1], params[i + 2]
+                i += 3
+                g += [nx * px + ny * py - offset for px, py in corners[name]]
+        return g, [0.0] * len(g), [math.inf] * len(g)
+
+    # -- NumPy: the parameters of a step ----------------------------------------------------------------
+
+    def use(self, scene: Scene, clearance_m: float) -> None:
+        """Keep ``clearance_m`` from ``scene`` (world frame) from now on."""
+        if scene != self._scene:
+            pieces = convex_pieces(scene)
+            self._scene, self._pieces, self._framed = scene, (_padded(pieces) if pieces else None), None
+        self._clearance = float(clearance_m)
+
+    def _in_goal_frame(self, goal: Pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The pieces' vertices ``(j, v, 2)``, their edges' outward normals ``(j, v, 2)`` and real-edge mask."""
+        assert self._pieces is not None
+        if self._framed is None or self._framed[0] != goal:
+            world, real = self._pieces
+            x, y, _ = to_goal_frame(goal, world[..., 0], world[..., 1], np.zeros(world.shape[:2]))
+            vertices = np.stack([x, y], -1)
+            d = np.roll(vertices, -1, axis=1) - vertices
+            length = np.hypot(d[..., 0], d[..., 1])
+            with np.errstate(invalid="ignore", divide="ignore"):
+                outward = np.stack([d[..., 1], -d[..., 0]], -1) / length[..., None]  # right of a CCW edge
+            self._framed = (goal, vertices, np.where(real[..., None], outward, 0.0), real)
+        return self._framed[1], self._framed[2], self._framed[3]
+
+    def lines(
+        self, points: np.ndarray, goal: Pose, anchor: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Distance ``(k, j)`` from bodies ``(k, c, 2)`` (parking frame) to each piece, and the line each gets:
+        normal ``(k, j, 2)`` and offset ``h`` ``(k, j)`` (see the module text). ``anchor``: the body where
+        the car is now ``(c, 2)``; an edge's normal must leave the gap to it as well."""
+        vertices, outward, real = self._in_goal_frame(goal)
+        n_pieces, size = real.shape
+        k = len(points)
+        # Nearest points, over the real edges of every piece.
+        ends = np.stack([vertices, np.roll(vertices, -1, axis=1)], 2)[real]  # (m, 2, 2)
+        gap, normal, _ = separating_lines(points, ends, outward[real])
+        gaps = np.full((k, n_pieces, size), np.inf)
+        gaps[:, real] = gap
+        normals = np.zeros((k, n_pieces, size, 2))
+        normals[:, real] = normal
+        best = np.argmin(gaps, axis=2)  # the nearest edge of each piece
+        distance = np.take_along_axis(gaps, best[..., None], 2)[..., 0]
+        nearest = np.take_along_axis(normals, best[..., None, None], 2)[:, :, 0]
+        # A body wholly inside a piece: its first corner left of every real edge.
+        first = points[:, 0][:, None, None, :]  # (k, 1, 1, 2)
+        side = np.sum((first - vertices[None]) * outward[None], -1)  # > 0: right of (outside) the edge
+        inside = np.all((side < 0.0) | ~real[None], axis=2)
+        overlap = inside | (distance <= 1e-9)
+        distance = np.where(overlap, 0.0, distance)
+        # Edge normals: the gap between body and piece along each, here and (the lesser) where the car is.
+        reach = np.einsum("kcx,jvx->kcjv", points, outward).min(axis=1)  # (k, j, v)
+        extent = np.einsum("jvx,jwx->jvw", outward, vertices).max(axis=2)  # (j, v)
+        h_near = np.einsum("kjx,jvx->kjv", nearest, vertices).max(axis=2)  # (k, j)
+        near_score = distance
+        if anchor is not None:
+            reach = np.minimum(reach, np.einsum("cx,jvx->cjv", anchor, outward).min(axis=0)[None])
+            near_score = np.minimum(near_score, np.einsum("cx,kjx->ckj", anchor, nearest).min(axis=0) - h_near)
+        margin = np.where(real[None], reach - extent[None], -np.inf)
+        edge = np.argmax(margin, axis=2)  # (k, j)
+        edge_score = np.take_along_axis(margin, edge[..., None], 2)[..., 0]
+        take_edge = overlap | (edge_score >= near_score)
+        n = np.where(take_edge[..., None], outward[np.arange(n_pieces)[None, :], edge], nearest)
+        h = np.einsum("kjx,jvx->kjv", n, vertices).max(axis=2)
+        return distance, n, h
+
+    def parameters(self, goal: Pose, states: np.ndarray) -> np.ndarray:
+        """The lines of each prediction step, flat: ``states`` are X_0..X_N of the warm start, parking frame."""
+        states = np.asarray(states, dtype=float)
+        n_steps = len(states) - 1
+        out = np.tile(np.array(_UNUSED), (n_steps, len(self.bodies), self.planes, 1))
+        if self._pieces is not None and n_steps:
+            corners = body_corners(self.vehicle, *states[:, :4].T)
+            rows = np.arange(n_steps)[:, None]
+            for j, name in enumerate(self.bodies):
+                points = np.stack([np.stack(p, -1) for p in corners[name]], 1)  # (k + 1, c, 2)
+                distance, n, h = self.lines(points[1:], goal, points[0])
+                take = min(self.planes, distance.shape[1])
+                nearest = np.argsort(distance, axis=1)[:, :take]  # (k, take)
+                near = distance[rows, nearest] <= REACH_M
+                chosen = np.concatenate([n[rows, nearest], (h[rows, nearest] + self._clearance)[..., None]], -1)
+                out[:, j, :take] = np.where(near[..., None], chosen, np.array(_UNUSED))
+        return out.reshape(n_steps * self.n_params)
