@@ -290,7 +290,7 @@ def run_bench(
 def bench_table(results: dict[str, OCPBench]) -> str:
     """The printed table: one row per OCP and route, the default marked."""
     head = (
-        f"{'OCP':<10}{'route':<11}{'median ms':>10}{'p99 ms':>9}{'max ms':>9}{'cpu ms':>8}{'fails':>7}"
+        f"{'OCP':<10}{'route':<11}{'median ms':>10}{'p99 ms':>10}{'max ms':>10}{'cpu ms':>8}{'fails':>7}"
         f"{'x ipopt':>9}{'move diff':>11}{'worst final error':>22}"
     )
     lines = [head]
@@ -308,8 +308,8 @@ def bench_table(results: dict[str, OCPBench]) -> str:
                 else ""
             )
             lines.append(
-                f"{ocp:<10}{name + mark:<11}{r.median_ms:>10.3f}{r.p99_ms:>9.3f}{r.max_ms:>9.3f}{r.cpu_median_ms:>8.3f}"
-                f"{r.failures:>7d}{r.speedup_vs_ipopt:>9.1f}{r.max_move_diff:>11.1e}{final:>22}{cut}"
+                f"{ocp:<10}{name + mark:<11}{r.median_ms:>10.3f}{r.p99_ms:>10.3f}{r.max_ms:>10.3f}"
+                f"{r.cpu_median_ms:>8.3f}{r.failures:>7d}{r.speedup_vs_ipopt:>9.1f}{r.max_move_diff:>11.1e}{final:>22}{cut}"
             )
         scaling = ", ".join(f"N={n}: {ms:.3f}" for n, ms in bench.horizon_scaling_ms.items())
         lines.append(f"{'':<10}default {bench.default} by horizon [ms]: {scaling}")

@@ -10,293 +10,28 @@ registry of :mod:`.solvers`: a primary, a fallback, and a last try from a cold s
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
-from ..checks import InputError, check_instance, check_range
+from ..checks import check_instance, check_range
 from ..model.inverse import front_steer_from_virtual, rear_speed_from_trailer_speed, virtual_steer_from_front
 from ..model.kinematics import trailer_speed_from_rear_speed
 from ..model.plant import Command, Measurement
 from ..model.scene import Scene
 from ..model.state import Pose, State, check_goal, to_goal_frame
-from ..model.vehicle import VehicleTrailer, check_vehicle
+from ..model.vehicle import VehicleTrailer
 from .clearance import ClearanceConstraints
 from .full_ocp import SPEED, STEER, FullParkingProblem
-from .ocp import OCP, NMPCSettings, TrailerParkingProblem
-from .solvers import ROUTES, casadi_reason, make_solver
-from .transcription import make_transcription
+from .ocp import NMPCSettings, TrailerParkingProblem
+from .receding import NLPProblem, NMPCStep, Program, RecedingHorizon, build_program, checked_settings
 
 __all__ = ["FullNMPC", "NLPProblem", "NMPCStep", "TrailerNMPC", "make_nmpc"]
 
 
-@dataclass(frozen=True)
-class NLPProblem:
-    """One NMPC solve as the controller posed it to its primary solver: replayable through any route.
-
-    ``p`` is the initial state and the OCP's step parameters (the scene's lines), ``w0`` the warm start,
-    the rest the bounds of the decision vector and of the constraints, all in the transcription's layout.
-    """
-
-    p: np.ndarray
-    w0: np.ndarray
-    lbx: np.ndarray
-    ubx: np.ndarray
-    lbg: np.ndarray
-    ubg: np.ndarray
-
-    def inputs(self) -> dict[str, np.ndarray]:
-        """The keyword arguments of a CasADi ``nlpsol`` call."""
-        return {"x0": self.w0, "p": self.p, "lbx": self.lbx, "ubx": self.ubx, "lbg": self.lbg, "ubg": self.ubg}
-
-
-@dataclass(frozen=True)
-class NMPCStep:
-    """What one NMPC step decided.
-
-    ``rear_speed``/``front_steer`` are the vehicle command; ``trailer_speed``/``virtual_steer``
-    the same motion in the trailer's virtual inputs (the paper's U_0, or Eqs. (18) and (56) of
-    the command for the full model). ``ok`` is False when the solver failed or gave a
-    non-finite answer; the command is then a stop (zero speed, steer held) and ``status``
-    says why. ``stop`` is True when the optimal speed is zero: the stage is over.
-    """
-
-    trailer_speed: float
-    virtual_steer: float
-    rear_speed: float
-    front_steer: float
-    cost: float
-    solve_ms: float
-    ok: bool
-    stop: bool
-    status: str
-    predicted_states: np.ndarray
-    predicted_inputs: np.ndarray
-
-    @property
-    def command(self) -> Command:
-        return Command(self.rear_speed, self.front_steer)
-
-
-def _shifted(rows: np.ndarray, part: float) -> np.ndarray:
-    """``rows`` (one per step) advanced by ``part`` of a step (0 < part <= 1), linearly, the last row held."""
-    ahead = np.vstack([rows[1:], rows[-1:]])
-    return ahead if part >= 1.0 else (1.0 - part) * rows + part * ahead
-
-
-def _settings(vehicle: Any, settings: Any, kind: str) -> NMPCSettings:
-    """Check a controller's arguments; ``settings`` None: the ``kind``'s defaults."""
-    check_vehicle(vehicle)
-    settings = NMPCSettings(kind=kind) if settings is None else settings
-    check_instance("settings", settings, NMPCSettings, "hitchpark.control.NMPCSettings(...)")
-    if settings.kind != kind:
-        raise InputError(f"this controller needs nmpc.kind {kind!r}, got {settings.kind!r}")
-    return settings
-
-
-@dataclass
-class _Program:
-    """An OCP made ready to solve: its transcription, the primary and fallback solvers."""
-
-    problem: OCP
-    transcription: Any
-    solver: Any
-    fallback: Any
-    equality: list[bool]
-    general: Any = None  # a route for problems that relax an equality (built when first needed)
-
-
-def _program(problem: OCP) -> _Program:
-    s = problem.settings
-    transcription = make_transcription(problem)
-    equality = list(transcription.lbg == transcription.ubg)
-    assert s.solver is not None  # resolved per kind by NMPCSettings
-    try:
-        solver = make_solver(s.solver, transcription.nlp, equality, s.solver_options, jit=bool(s.jit))
-    except RuntimeError as exc:  # CasADi refuses an unknown or ill-typed option
-        raise InputError(f"nmpc.solver_options are not accepted by {s.solver}: {casadi_reason(exc)}") from None
-    fallback = s.fallback_solver
-    backup = make_solver(fallback, transcription.nlp, equality) if fallback and fallback != s.solver else None
-    return _Program(problem, transcription, solver, backup, equality)
-
-
-class _RecedingHorizon:
-    """The solve machinery both NMPCs share: transcription, solver cascade, warm start."""
-
-    def __init__(self, vehicle: VehicleTrailer, problem: OCP):
-        vehicle.require_hitch_offset()
-        self.vehicle = vehicle
-        self.settings = problem.settings
-        self._program = _program(problem)
-        self._last_inputs: np.ndarray | None = None
-        self._last_states: np.ndarray | None = None
-        self._last_steer = 0.0
-        #: Set to a list to record every problem posed to the primary solver (``hitchpark bench``).
-        self.recorder: list[NLPProblem] | None = None
-
-    @property
-    def problem(self) -> OCP:
-        """The OCP solved now."""
-        return self._program.problem
-
-    @property
-    def transcription(self) -> Any:
-        return self._program.transcription
-
-    @property
-    def solver(self) -> Any:
-        """The primary solver of the OCP solved now."""
-        return self._program.solver
-
-    @solver.setter
-    def solver(self, solver: Any) -> None:
-        self._program.solver = solver
-
-    @property
-    def fallback(self) -> Any:
-        """The fallback solver of the OCP solved now (None: none)."""
-        return self._program.fallback
-
-    @fallback.setter
-    def fallback(self, solver: Any) -> None:
-        self._program.fallback = solver
-
-    def _step_parameters(self, warm: np.ndarray, x0: np.ndarray) -> np.ndarray:
-        """The OCP's parameters of each prediction step, from the warm start (none unless an OCP has some)."""
-        return np.zeros(0)
-
-    def _cold_start(
-        self, x0: np.ndarray, guess: np.ndarray, u_min: np.ndarray, u_max: np.ndarray, free: Any
-    ) -> np.ndarray:
-        """The warm start when there is no previous plan: ``guess`` (the cold guess) unless an OCP does better."""
-        return guess
-
-    def reset(self, front_steer: float = 0.0) -> None:
-        """Forget the warm start (call at the start of each reverse stage)."""
-        self._last_inputs = None
-        self._last_states = None
-        self._last_steer = float(front_steer)
-
-    def _cold_inputs(self) -> np.ndarray:
-        raise NotImplementedError
-
-    def _initial_guess(self, x0: np.ndarray, u_min: np.ndarray, u_max: np.ndarray) -> np.ndarray:
-        if self._last_inputs is None:
-            inputs, states = self._cold_inputs(), None
-        else:
-            # The previous solution moved on by one control sample: a whole prediction step when they are
-            # equal, else the fraction dt / prediction_dt of one (interpolated), the last step repeated.
-            assert self._last_states is not None and self.settings.prediction_dt is not None
-            part = self.settings.dt / self.settings.prediction_dt
-            inputs = _shifted(self._last_inputs, part)
-            states = _shifted(self._last_states, part)
-        inputs = np.clip(inputs, u_min, u_max)
-        return self.transcription.guess(x0, inputs, states)
-
-    def _solve(
-        self, solver: Any, p: np.ndarray, w0: np.ndarray, bounds: tuple[np.ndarray, ...]
-    ) -> tuple[bool, str, np.ndarray, float]:
-        lbx, ubx, lbg, ubg = bounds
-        try:
-            sol = solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
-            stats = solver.stats()
-            ok, status = bool(stats.get("success", False)), str(stats.get("return_status", "unknown"))
-            w, cost = np.asarray(sol["x"]).ravel(), float(sol["f"])
-        except RuntimeError as exc:  # CasADi raises on evaluation errors (e.g. NaN in a function)
-            return False, f"solver error: {exc}".splitlines()[0], np.full(len(w0), np.nan), math.nan
-        if ok and not (np.all(np.isfinite(w)) and math.isfinite(cost)):
-            ok, status = False, "non-finite solution"
-        return ok, status, w, cost
-
-    def _general_solver(self, program: _Program | None = None) -> Any:
-        """The primary route, or a general one if the primary needs every equality of the transcription kept.
-
-        A stage's free-steer problem (:meth:`FullNMPC.initial_steer`, once per stage, standing still) frees
-        the equality X_0[steer] = p[steer]; a structure-exploiting route such as fatrop cannot take that.
-        """
-        assert self.settings.solver is not None
-        program = program or self._program
-        if not ROUTES[self.settings.solver].structured:
-            return program.solver
-        if program.general is None:
-            general = self.settings.fallback_solver
-            if general is None or ROUTES[general].structured:
-                general = "ipopt"
-            program.general = program.fallback if general == self.settings.fallback_solver else None
-            if program.general is None:
-                program.general = make_solver(general, program.transcription.nlp, program.equality)
-        return program.general
-
-    def _fallback_structured(self) -> bool:
-        fallback = self.settings.fallback_solver
-        return fallback is not None and ROUTES[fallback].structured
-
-    def _solve_cascade(
-        self,
-        x0: np.ndarray,
-        u_min: np.ndarray,
-        u_max: np.ndarray,
-        free: dict[int, tuple[float, float]] | None = None,
-    ) -> tuple[bool, str, np.ndarray, np.ndarray, float, float]:
-        """Primary solver, then the fallback, then a cold start; returns ok, status, states, inputs, cost, ms.
-
-        ``free``: components of X_0 freed within bounds (:meth:`.Transcription.bounds`); such a problem
-        relaxes an equality of the transcription (see :meth:`_general_solver`).
-        """
-        t0 = time.perf_counter()
-        relaxed = bool(free)
-        bounds = self.transcription.bounds(u_min, u_max, free)
-        cold = self._last_inputs is None
-        warm = self._initial_guess(x0, u_min, u_max)
-        if cold:
-            warm = self._cold_start(x0, warm, u_min, u_max, free)
-        p = np.concatenate([x0, self._step_parameters(warm, x0)])
-        primary = self._general_solver() if relaxed else self.solver
-        if self.recorder is not None and primary is self.solver:
-            self.recorder.append(NLPProblem(*(np.array(a, dtype=float) for a in (p, warm, *bounds))))
-        ok, status, w, cost = self._solve(primary, p, warm, bounds)
-        # The fast primary solver can stall where the interior-point fallback does not (a structured
-        # fallback cannot take a relaxed problem; the same solver again would answer the same).
-        fallback = self.fallback
-        if fallback is primary or (relaxed and fallback is not None and self._fallback_structured()):
-            fallback = None
-        if not ok and fallback is not None:
-            ok, status, w, cost = self._solve(fallback, p, warm, bounds)
-        if not ok and not cold:
-            # A warm start can mislead the solver; one last try from the cold guess before giving up.
-            self._last_inputs = self._last_states = None
-            guess = self._cold_start(x0, self._initial_guess(x0, u_min, u_max), u_min, u_max, free)
-            p = np.concatenate([x0, self._step_parameters(guess, x0)])
-            ok, status, w, cost = self._solve(fallback or primary, p, guess, bounds)
-        solve_ms = 1e3 * (time.perf_counter() - t0)
-        states, inputs = self.transcription.unpack(w, x0)
-        return ok, status, states, inputs, cost, solve_ms
-
-    def _stop(self, status: str, cost: float, solve_ms: float, states: np.ndarray, inputs: np.ndarray) -> NMPCStep:
-        self._last_inputs = self._last_states = None
-        return NMPCStep(0.0, 0.0, 0.0, self._last_steer, cost, solve_ms, False, True, status, states, inputs)
-
-    def _refuse(self, state: Sequence[float] | np.ndarray, hitch: float) -> NMPCStep | None:
-        refuse = ""
-        if not all(map(math.isfinite, state)):
-            refuse = "non-finite state"
-        elif abs(hitch) > self.vehicle.max_hitch:
-            refuse = "hitch angle beyond max_hitch"  # the model would ask for nonsense (even driving forward)
-        if not refuse:
-            return None
-        empty = np.full((self.problem.horizon + 1, self.problem.n_x), np.nan)
-        return self._stop(refuse, math.nan, 0.0, empty, empty[:-1, : self.problem.n_u])
-
-    def initial_steer(self, measurement: Measurement, goal: Pose) -> float | None:
-        """The steer this controller would like to start a stage with (None: no preference)."""
-        return None
-
-
-class TrailerNMPC(_RecedingHorizon):
+class TrailerNMPC(RecedingHorizon):
     """The paper's receding-horizon controller for the trailer alone (Eqs. 47-57).
 
     Each step bounds the virtual steer by Eqs. (56)-(57) at the current hitch angle and maps
@@ -304,7 +39,7 @@ class TrailerNMPC(_RecedingHorizon):
     """
 
     def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings | None = None):
-        settings = _settings(vehicle, settings, "paper")
+        settings = checked_settings(vehicle, settings, "paper")
         super().__init__(vehicle, TrailerParkingProblem(vehicle, settings))
 
     def _cold_inputs(self) -> np.ndarray:
@@ -347,7 +82,7 @@ class TrailerNMPC(_RecedingHorizon):
         return NMPCStep(v_t, d_t, rear, front, cost, solve_ms, True, stop, status, states, inputs)
 
 
-class FullNMPC(_RecedingHorizon):
+class FullNMPC(RecedingHorizon):
     """The full-model NMPC (:mod:`.full_ocp`): limits on the whole horizon, the command delay predicted out.
 
     ``act`` takes the measurement (pose, hitch, actual steer and speed) and the commands
@@ -356,11 +91,11 @@ class FullNMPC(_RecedingHorizon):
     """
 
     def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings | None = None):
-        settings = _settings(vehicle, settings, "full")
+        settings = checked_settings(vehicle, settings, "full")
         problem = FullParkingProblem(vehicle, settings)
         super().__init__(vehicle, problem)
         self._open = self._program  # the OCP of open space
-        self._among: _Program | None = None  # the obstacle OCP, built when first needed
+        self._among: Program | None = None  # the obstacle OCP, built when first needed
         self._goal = Pose()
         x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
         # One controller sample of the model: for the commands in flight and for the first move of a plan.
@@ -378,7 +113,7 @@ class FullNMPC(_RecedingHorizon):
             return
         if self._among is None:
             lines = ClearanceConstraints(self.vehicle, self.settings.obstacle_planes)
-            self._among = _program(FullParkingProblem(self.vehicle, self.settings, lines))
+            self._among = build_program(FullParkingProblem(self.vehicle, self.settings, lines))
         assert isinstance(self._among.problem, FullParkingProblem) and self._among.problem.clearance is not None
         self._among.problem.clearance.use(scene, clearance_m)
         self._program = self._among
