@@ -214,12 +214,15 @@ class ClearanceConstraints:
         return self._framed[1], self._framed[2], self._framed[3]
 
     def lines(
-        self, points: np.ndarray, goal: Pose, anchor: np.ndarray | None = None
+        self, points: np.ndarray, goal: Pose, anchor: np.ndarray | None = None, pieces: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Distance ``(k, j)`` from bodies ``(k, c, 2)`` (parking frame) to each piece, and the line each gets:
-        normal ``(k, j, 2)`` and offset ``h`` ``(k, j)`` (see the module text). ``anchor``: the body where
-        the car is now ``(c, 2)``; an edge's normal must leave the gap to it as well."""
+        normal ``(k, j, 2)`` and offset ``h`` ``(k, j)`` (see the module text). ``anchor``: each body where
+        the car is now ``(k, c, 2)``; an edge's normal must leave the gap to it as well. ``pieces``: the
+        indices of the pieces to look at (default: all). A segment body may come as ``(a, b, b, a)``."""
         vertices, outward, real = self._in_goal_frame(goal)
+        if pieces is not None:
+            vertices, outward, real = vertices[pieces], outward[pieces], real[pieces]
         n_pieces, size = real.shape
         k = len(points)
         # Nearest points, over the real edges of every piece.
@@ -244,8 +247,8 @@ class ClearanceConstraints:
         h_near = np.einsum("kjx,jvx->kjv", nearest, vertices).max(axis=2)  # (k, j)
         near_score = distance
         if anchor is not None:
-            reach = np.minimum(reach, np.einsum("cx,jvx->cjv", anchor, outward).min(axis=0)[None])
-            near_score = np.minimum(near_score, np.einsum("cx,kjx->ckj", anchor, nearest).min(axis=0) - h_near)
+            reach = np.minimum(reach, np.einsum("kcx,jvx->kcjv", anchor, outward).min(axis=1))
+            near_score = np.minimum(near_score, np.einsum("kcx,kjx->kcj", anchor, nearest).min(axis=1) - h_near)
         margin = np.where(real[None], reach - extent[None], -np.inf)
         edge = np.argmax(margin, axis=2)  # (k, j)
         edge_score = np.take_along_axis(margin, edge[..., None], 2)[..., 0]
@@ -259,15 +262,30 @@ class ClearanceConstraints:
         states = np.asarray(states, dtype=float)
         n_steps = len(states) - 1
         out = np.tile(np.array(_UNUSED), (n_steps, len(self.bodies), self.planes, 1))
-        if self._pieces is not None and n_steps:
-            corners = body_corners(self.vehicle, *states[:, :4].T)
-            rows = np.arange(n_steps)[:, None]
-            for j, name in enumerate(self.bodies):
-                points = np.stack([np.stack(p, -1) for p in corners[name]], 1)  # (k + 1, c, 2)
-                distance, n, h = self.lines(points[1:], goal, points[0])
-                take = min(self.planes, distance.shape[1])
-                nearest = np.argsort(distance, axis=1)[:, :take]  # (k, take)
-                near = distance[rows, nearest] <= REACH_M
-                chosen = np.concatenate([n[rows, nearest], (h[rows, nearest] + self._clearance)[..., None]], -1)
-                out[:, j, :take] = np.where(near[..., None], chosen, np.array(_UNUSED))
+        if self._pieces is None or not n_steps:
+            return out.reshape(n_steps * self.n_params)
+        corners = body_corners(self.vehicle, *states[:, :4].T)
+        # Every body as four corners (a segment a-b as a, b, b, a), all bodies and steps at once.
+        quads = []
+        for name in self.bodies:
+            points = [np.stack(p, -1) for p in corners[name]]
+            quads.append(np.stack(points if len(points) == 4 else [*points, *points[::-1]], 1))  # (k + 1, 4, 2)
+        bodies = np.stack(quads)  # (b, k + 1, 4, 2)
+        # Only the pieces whose bounding boxes come within reach of the box around every body at every step.
+        every = bodies.reshape(-1, 2)
+        low, high = every.min(axis=0) - REACH_M, every.max(axis=0) + REACH_M
+        vertices = self._in_goal_frame(goal)[0]
+        pieces = np.flatnonzero(np.all((vertices.max(axis=1) >= low) & (vertices.min(axis=1) <= high), axis=1))
+        if not len(pieces):
+            return out.reshape(n_steps * self.n_params)
+        n_bodies = len(self.bodies)
+        anchors = np.repeat(bodies[:, :1], n_steps, axis=1)
+        distance, n, h = self.lines(bodies[:, 1:].reshape(-1, 4, 2), goal, anchors.reshape(-1, 4, 2), pieces)
+        take = min(self.planes, len(pieces))
+        nearest = np.argsort(distance, axis=1)[:, :take]  # (b k, take)
+        rows = np.arange(len(distance))[:, None]
+        within = distance[rows, nearest] <= REACH_M
+        chosen = np.concatenate([n[rows, nearest], (h[rows, nearest] + self._clearance)[..., None]], -1)
+        chosen = np.where(within[..., None], chosen, np.array(_UNUSED)).reshape(n_bodies, n_steps, take, 3)
+        out[:, :, :take] = chosen.transpose(1, 0, 2, 3)
         return out.reshape(n_steps * self.n_params)
