@@ -108,6 +108,7 @@ def test_states_that_keep_to_the_lines_keep_the_clearance(anchored):
             for nx, ny, offset in planes
             for px, py in corners[name]
         ]
+        assert lines.least_slack(np.vstack([now, moved]), params) == pytest.approx(min(rows))
         if min(rows) < 0.0:
             continue
         kept += 1

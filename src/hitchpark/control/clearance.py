@@ -190,6 +190,18 @@ class ClearanceConstraints:
                 g += [nx * px + ny * py - offset for px, py in corners[name]]
         return g, [0.0] * len(g), [math.inf] * len(g)
 
+    def least_slack(self, states: np.ndarray, params: np.ndarray) -> float:
+        """The least row value ``n . p_i - (h + c)`` (NumPy) of X_1..X_N, ``states`` X_0..X_N, at ``params``."""
+        states = np.asarray(states, dtype=float)[1:]
+        lines = np.asarray(params, dtype=float).reshape(len(states), len(self.bodies), self.planes, 3)
+        corners = body_corners(self.vehicle, *states[:, :4].T)
+        least = math.inf
+        for j, name in enumerate(self.bodies):
+            for px, py in corners[name]:
+                rows = lines[:, j, :, 0] * px[:, None] + lines[:, j, :, 1] * py[:, None] - lines[:, j, :, 2]
+                least = min(least, float(rows.min()))
+        return least
+
     # -- NumPy: the parameters of a step ----------------------------------------------------------------
 
     def use(self, scene: Scene, clearance_m: float) -> None:

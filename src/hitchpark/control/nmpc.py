@@ -139,13 +139,18 @@ class FullNMPC(RecedingHorizon):
         round succeeds, its plan meets the lines drawn around it, and the warm-started steps that follow
         keep it so.
         """
-        if self._program is self._open:
+        assert isinstance(self.problem, FullParkingProblem)
+        lines = self.problem.clearance
+        if lines is None:
             return guess
         bounds = self._open.transcription.bounds(u_min, u_max, free)
         solver = self._general_solver(self._open) if free else self._open.solver
         ok, _, w, _ = self._solve(solver, x0, guess, bounds)
         if not ok:
             w = guess
+        states = self.transcription.unpack(w, x0)[0]
+        if ok and lines.least_slack(states, self._step_parameters(w, x0)) >= 0.0:
+            return w  # clear: it meets the lines drawn around it
         bounds = self.transcription.bounds(u_min, u_max, free)
         general = self._general_solver()
         for _ in range(COLD_ROUNDS):
