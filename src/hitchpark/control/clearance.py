@@ -39,8 +39,8 @@ from ..model.vehicle import VehicleTrailer
 
 __all__ = ["REACH_M", "ClearanceConstraints", "convex_pieces", "separating_lines"]
 
-#: Segments farther than this from a body in the warm start get no line at that step [m]; a plan moves
-#: far less from one step to the next.
+#: Pieces of the scene farther than this from a body in the warm start get no line at that step [m]; a
+#: plan moves far less from one step to the next.
 REACH_M = 2.5
 
 #: An unused slot: 0 . p - (-1) >= 0 always holds.

@@ -2,8 +2,8 @@
 
 A transcription turns the OCP into CasADi's ``{x, p, f, g}`` with the initial
 state as the parameter ``p`` (followed by the OCP's ``n_p`` parameters of each
-prediction step k = 1..N, whose rows on X_k follow X_k's dynamics), and knows how to lay out bounds, initial guesses
-and solutions. Eq. (51) is the single-shooting form (inputs only); multiple
+prediction step k = 1..N, whose rows on X_k follow X_k's dynamics), and knows
+how to lay out bounds, initial guesses and solutions. Eq. (51) is the single-shooting form (inputs only); multiple
 shooting keeps the states as unknowns tied by the dynamics as equality
 constraints, which is sparser and better conditioned over long horizons.
 """
