@@ -2,17 +2,24 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 
 import numpy as np
 import pytest
 
+from hitchpark.checks import InputError
+from hitchpark.control.nmpc import FullNMPC, make_nmpc
+from hitchpark.control.ocp import NMPCSettings
+from hitchpark.control.reference import PathReference
 from hitchpark.io import to_jsonable
 from hitchpark.maneuver import ManeuverResult, ManeuverSettings, ProcessSettings, park
 from hitchpark.maneuver.process import direction_segments_of
 from hitchpark.maneuver.result import StageResult
+from hitchpark.maneuver.stages import ReverseStage
 from hitchpark.model import VehicleTrailer
+from hitchpark.model.plant import Measurement
 from hitchpark.model.scene import Obstacle, Scene
 from hitchpark.model.state import Pose, State
 
@@ -28,12 +35,58 @@ def test_a_planned_maneuver_parks_and_records_its_plans(planned):
     r = planned
     assert r.success, r.detail
     assert r.plans and r.plans[0].status == "found" and r.planning_s > 0
-    assert {s.controller for s in r.stages} >= {"tracking", "nmpc"}
+    assert {s.controller for s in r.stages} <= {"tracking", "nmpc"}
     assert r.stages[-1].controller == "nmpc" and r.stages[-1].kind == "reverse"
     tr = r.trajectory
     assert np.all(np.abs(tr["front_steer"]) <= V.max_steer) and np.all(np.abs(tr["hitch"]) <= V.max_hitch)
     rates = np.abs(np.diff(tr["front_steer_cmd"])) / np.diff(tr["t"])
     assert np.all(rates <= V.max_steer_rate + 1e-9)
+
+
+def test_the_nmpc_tracks_the_whole_last_reverse_segment_to_the_goal(planned):
+    r = planned
+    last = r.stages[-1]
+    assert last.controller == "nmpc" and all(s.controller == "tracking" for s in r.stages[:-1])
+    path = r.plans[-1].path
+    forward = np.flatnonzero(path["direction"] > 0)
+    start = int(forward[-1]) if len(forward) else 0  # where the last reverse segment begins
+    planned_xy = np.column_stack([path["x_trailer"], path["y_trailer"]])[start:]
+    planned_xy = np.vstack([planned_xy, [[0.0, 0.0]]])  # the line from the plan's end to the goal
+    rows = slice(last.first_row, last.last_row + 1)
+    x, y = r.trajectory["x_trailer"][rows], r.trajectory["y_trailer"][rows]
+    dense = np.vstack([np.linspace(a, b, 20) for a, b in itertools.pairwise(planned_xy)])
+    gaps = np.min(np.hypot(x[:, None] - dense[None, :, 0], y[:, None] - dense[None, :, 1]), axis=1)
+    assert gaps.max() < ManeuverSettings().tracking.max_deviation_m
+    assert abs(last.distance_error_m) < 0.05
+
+
+def test_without_nmpc_tracking_pure_pursuit_hands_the_last_metres_to_the_nmpc():
+    settings = ManeuverSettings(process=ProcessSettings(nmpc_tracking=False))
+    r = park(V, State(10.0, 3.0, 0.3, 0.0), settings=settings)
+    assert r.success, r.detail
+    assert [s.controller for s in r.stages][-2:] == ["tracking", "nmpc"]
+
+
+def test_a_tracking_stage_stops_and_gives_up_when_the_car_strays_from_the_path():
+    nmpc = make_nmpc(V, NMPCSettings(kind="full"))
+    s = nmpc.settings
+    path = np.column_stack([np.linspace(8.0, 1.0, 50), np.full(50, 1.0), np.zeros(50), np.zeros(50)])  # 1 m aside
+    reference = PathReference(path, Pose(), 0.6, V.max_accel, s.prediction_dt, s.horizon)
+    stage = ReverseStage(nmpc, reference, max_deviation_m=0.35)
+    m = Measurement(0.0, State(8.0, 0.0, 0.0, 0.0), 0.0, 0.0)
+    stage.begin(m, Pose())
+    step = stage.act(m, Pose(), ())
+    assert not step.ok and step.stop and step.rear_speed == 0.0 and "deviated" in step.status
+
+
+def test_only_the_full_nmpc_tracks_a_path_and_with_its_own_horizon():
+    path = np.column_stack([np.linspace(8.0, 1.0, 50), np.zeros((50, 3))])
+    with pytest.raises(InputError, match="full"):
+        ReverseStage(make_nmpc(V, NMPCSettings(kind="paper")), PathReference(path, Pose(), 0.6, 1.0, 0.3, 10))
+    nmpc = make_nmpc(V, NMPCSettings(kind="full"))
+    assert isinstance(nmpc, FullNMPC)
+    with pytest.raises(InputError, match="horizon"):
+        nmpc.follow(PathReference(path, Pose(), 0.6, 1.0, 0.3, 7))
 
 
 def test_a_planned_maneuver_round_trips_through_json(planned):

@@ -91,13 +91,16 @@ class BenchOCP:
         return out
 
 
-#: The OCPs ``bench`` knows: the paper's (its 3-stage process on the ideal car), the full model's (the
-#: default process on the realistic car, open space) and the obstacle OCP (the full model keeping clear
-#: of the scene, :mod:`~hitchpark.control.clearance`, in the built-in scenes of obstacles).
+#: The OCPs ``bench`` knows: the paper's (its 3-stage process on the ideal car), the full model's (parking
+#: at the goal on the realistic car, open space) and the obstacle OCP (the full model keeping clear of the
+#: scene, :mod:`~hitchpark.control.clearance`, in the built-in scenes of obstacles). The full and obstacle
+#: OCPs park at the goal: their planned processes hand the last metres to the NMPC instead of letting it
+#: track the whole last segment (``process.nmpc_tracking``), so that every problem recorded is of that OCP.
+_PARKING = ProcessSettings(nmpc_tracking=False)
 BENCH_OCPS: dict[str, BenchOCP] = {
     "paper": BenchOCP("paper", NMPCSettings(kind="paper"), PlantSettings(kind="ideal"), ProcessSettings(kind="staged")),
-    "full": BenchOCP("full", NMPCSettings(kind="full"), PlantSettings()),
-    "obstacles": BenchOCP("obstacles", NMPCSettings(kind="full"), PlantSettings(), scenes=True),
+    "full": BenchOCP("full", NMPCSettings(kind="full"), PlantSettings(), _PARKING),
+    "obstacles": BenchOCP("obstacles", NMPCSettings(kind="full"), PlantSettings(), _PARKING, scenes=True),
 }
 
 
@@ -226,6 +229,9 @@ def bench_ocp(
     progress(f"{ocp.name}: recording the default controller on {len(starts)} closed-loop starts")
     recorder, problems = record_problems(ocp, vehicle, starts)
     tr = recorder.transcription  # it lays out the problems
+    n_p = tr.nlp["p"].numel()
+    if any(len(problem.p) != n_p for problem in problems):  # a loop that solved another OCP (tracking, say)
+        raise RuntimeError(f"the {ocp.name} loops posed problems of more than one OCP")
     equality = list(tr.lbg == tr.ubg)
     timed: dict[str, tuple[np.ndarray, np.ndarray, list[Any]]] = {}
     for name in dict.fromkeys(["ipopt", *routes]):

@@ -13,6 +13,11 @@ accurate at 1 m/s.
 Among obstacles (:class:`FullParkingProblem` given a :class:`~.clearance.ClearanceConstraints`) every
 predicted X_k also keeps the bodies on the free side of the scene's separating lines, which are
 parameters of each step: the obstacle OCP.
+
+Tracking (``tracking=True``) the cost weighs X_k - R_k instead of X_k, with a reference state R_k of
+each step among the step's parameters (a planned path moved along in time,
+:class:`~.reference.PathReference`); where the reference has reached the goal, R_k = 0 and the OCP is the
+parking OCP again.
 """
 
 from __future__ import annotations
@@ -46,11 +51,20 @@ class FullParkingProblem:
     n_x = 6
     n_u = 2
 
-    def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings, clearance: ClearanceConstraints | None = None):
+    def __init__(
+        self,
+        vehicle: VehicleTrailer,
+        settings: NMPCSettings,
+        clearance: ClearanceConstraints | None = None,
+        tracking: bool = False,
+    ):
         self.vehicle = vehicle
         self.settings = settings
         self.clearance = clearance
-        self.n_p = 0 if clearance is None else clearance.n_params
+        self.tracking = tracking
+        #: A step's parameters: its reference state when tracking, then its separating lines.
+        self.n_ref = self.n_x if tracking else 0
+        self.n_p = self.n_ref + (0 if clearance is None else clearance.n_params)
         self.path_constraints: list[Callable[[Any, Any, int], tuple[Any, Any, Any]]] = []
         self._Q = ca.diag(ca.DM(list(settings.Q or ())))
         self._R = ca.diag(ca.DM(list(settings.R or ())))
@@ -72,17 +86,30 @@ class FullParkingProblem:
         assert step is not None
         return rk4(lambda z: self.rhs(z, u), x, step, substeps=1)
 
-    def stage_cost(self, x: Any, u: Any) -> Any:
-        """X_k^T Q X_k + U_k^T R U_k, Eq. (49) on the full state and the actuator rates."""
-        return ca.bilin(self._Q, x, x) + ca.bilin(self._R, u, u)
+    def _error(self, x: Any, params: Any) -> Any:
+        """X_k, or X_k - R_k when tracking (``params``: the step's parameters, the reference first), its
+        position part along and across the reference's heading: Q and P weigh the error along the path as
+        they weigh it along the goal line, the last stretch of every path."""
+        if not self.tracking:
+            return x
+        e = x - params[: self.n_ref]
+        c, s = ca.cos(params[2]), ca.sin(params[2])
+        return ca.vertcat(c * e[0] + s * e[1], -s * e[0] + c * e[1], e[2:])
 
-    def terminal_cost(self, x: Any) -> Any:
-        """X_N^T P X_N."""
-        return ca.bilin(self._P, x, x)
+    def stage_cost(self, x: Any, u: Any, params: Any = None) -> Any:
+        """E_k^T Q E_k + U_k^T R U_k, Eq. (49) on the full state (E_k = X_k, or X_k - R_k tracking) and the
+        actuator rates."""
+        e = self._error(x, params)
+        return ca.bilin(self._Q, e, e) + ca.bilin(self._R, u, u)
+
+    def terminal_cost(self, x: Any, params: Any = None) -> Any:
+        """E_N^T P E_N."""
+        e = self._error(x, params)
+        return ca.bilin(self._P, e, e)
 
     def step_rows(self, x: Any, params: Any) -> tuple[list[Any], list[float], list[float]]:
         """The separating lines of the scene at this step (none in open space)."""
-        return ([], [], []) if self.clearance is None else self.clearance.rows(x, params)
+        return ([], [], []) if self.clearance is None else self.clearance.rows(x, params[self.n_ref :])
 
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Bounds on X_1..X_N: the jackknife limit with its margin, the steer limit, reverse speeds."""

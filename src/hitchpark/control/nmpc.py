@@ -16,7 +16,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from ..checks import check_instance, check_range
+from ..checks import InputError, check_instance, check_range
 from ..model.inverse import front_steer_from_virtual, rear_speed_from_trailer_speed, virtual_steer_from_front
 from ..model.kinematics import trailer_speed_from_rear_speed
 from ..model.plant import Command, Measurement
@@ -27,6 +27,7 @@ from .clearance import ClearanceConstraints
 from .full_ocp import SPEED, STEER, FullParkingProblem
 from .ocp import NMPCSettings, TrailerParkingProblem
 from .receding import NLPProblem, NMPCStep, Program, RecedingHorizon, build_program, checked_settings
+from .reference import PathReference
 
 __all__ = ["FullNMPC", "NLPProblem", "NMPCStep", "TrailerNMPC", "make_nmpc"]
 
@@ -94,12 +95,20 @@ class FullNMPC(RecedingHorizon):
         settings = checked_settings(vehicle, settings, "full")
         problem = FullParkingProblem(vehicle, settings)
         super().__init__(vehicle, problem)
-        self._open = self._program  # the OCP of open space
-        self._among: Program | None = None  # the obstacle OCP, built when first needed
+        # The OCPs by (tracking a reference, keeping clear of a scene), each built when first needed.
+        self._programs: dict[tuple[bool, bool], Program] = {(False, False): self._program}
+        self._scene, self._clearance_m = Scene(), 0.0
+        self._reference: PathReference | None = None
+        self._references = np.zeros((0, 6))  # the reference of each prediction step, this step
         self._goal = Pose()
         x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
         # One controller sample of the model: for the commands in flight and for the first move of a plan.
         self._model_step = ca.Function("model_step", [x, u], [problem.discrete_dynamics(x, u, settings.dt)])
+
+    @property
+    def reference(self) -> PathReference | None:
+        """The path tracked now (None: park at the goal)."""
+        return self._reference
 
     def keep_clear(self, scene: Scene, clearance_m: float) -> None:
         """Keep the bodies ``clearance_m`` from ``scene`` over the horizon from now on (the obstacle OCP, with
@@ -108,48 +117,80 @@ class FullNMPC(RecedingHorizon):
         check_instance("scene", scene, Scene, "hitchpark.model.Scene(obstacles, area)")
         check_range("clearance_m", clearance_m, 0.0, 10.0, unit="m")
         self.reset(self._last_steer)
-        if scene.is_empty or self.settings.obstacle_planes == 0:
-            self._program = self._open
-            return
-        if self._among is None:
-            lines = ClearanceConstraints(self.vehicle, self.settings.obstacle_planes)
-            self._among = build_program(FullParkingProblem(self.vehicle, self.settings, lines))
-        assert isinstance(self._among.problem, FullParkingProblem) and self._among.problem.clearance is not None
-        self._among.problem.clearance.use(scene, clearance_m)
-        self._program = self._among
+        self._scene, self._clearance_m = scene, float(clearance_m)
+        self._program = self._program_for(self._reference is not None)
+
+    def follow(self, reference: PathReference | None) -> None:
+        """Track ``reference`` to the goal from now on (the tracking OCP); None: park at the goal."""
+        if reference is not None:
+            check_instance("reference", reference, PathReference, "hitchpark.control.PathReference(...)")
+            if reference.horizon != self.problem.horizon:
+                raise InputError(
+                    f"the reference has {reference.horizon} steps; the NMPC's horizon is {self.problem.horizon}"
+                )
+            reference.reset()
+        self.reset(self._last_steer)
+        self._reference = reference
+        self._program = self._program_for(reference is not None)
+
+    def _program_for(self, tracking: bool, lines: bool | None = None) -> Program:
+        """The OCP tracking or not, with the scene's lines (``lines`` None: if the scene has any)."""
+        if lines is None:
+            lines = not self._scene.is_empty and self.settings.obstacle_planes > 0
+        key = (tracking, lines)
+        if key not in self._programs:
+            clearance = ClearanceConstraints(self.vehicle, self.settings.obstacle_planes) if lines else None
+            self._programs[key] = build_program(FullParkingProblem(self.vehicle, self.settings, clearance, tracking))
+        program = self._programs[key]
+        assert isinstance(program.problem, FullParkingProblem)
+        if program.problem.clearance is not None:
+            program.problem.clearance.use(self._scene, self._clearance_m)
+        return program
+
+    def _lines(self, warm: np.ndarray, x0: np.ndarray) -> np.ndarray:
+        """The scene's lines of each step (N, n) drawn around the warm start ((N, 0) in open space)."""
+        assert isinstance(self.problem, FullParkingProblem)
+        lines, n = self.problem.clearance, self.problem.horizon
+        if lines is None:
+            return np.zeros((n, 0))
+        states, _ = self.transcription.unpack(warm, x0)
+        return lines.parameters(self._goal, np.vstack([x0[None, :], states[1:]])).reshape(n, -1)
 
     def _step_parameters(self, warm: np.ndarray, x0: np.ndarray) -> np.ndarray:
         assert isinstance(self.problem, FullParkingProblem)
-        lines = self.problem.clearance
-        if lines is None:
-            return np.zeros(0)
-        states, _ = self.transcription.unpack(warm, x0)
-        return lines.parameters(self._goal, np.vstack([x0[None, :], states[1:]]))
+        refs = self._references if self.problem.tracking else np.zeros((self.problem.horizon, 0))
+        return np.hstack([refs, self._lines(warm, x0)]).ravel()
 
     def _cold_start(
         self, x0: np.ndarray, guess: np.ndarray, u_min: np.ndarray, u_max: np.ndarray, free: Any
     ) -> np.ndarray:
-        """Among obstacles, a plan to draw the scene's lines around when there is no previous one.
+        """The warm start when there is no previous plan.
 
-        Lines drawn around the cold guess (reverse with the steer held) can shut out every plan: a line
-        at a corner the guess passes too close leaves no room where the plan will be. So the plan of
-        open space comes first (clear wherever the car can be clear; it meets every line drawn around
-        it when it is). Where it passes too close, the obstacle OCP is solved around it, and while that
-        fails, again around the general solver's last iterate (up to :data:`COLD_ROUNDS` rounds): once a
-        round succeeds, its plan meets the lines drawn around it, and the warm-started steps that follow
-        keep it so.
+        Tracking, the reference itself (its steer and speed reached within the rate limits). Among
+        obstacles, then, a plan to draw the scene's lines around. Lines drawn around the cold guess
+        (reverse with the steer held) can shut out every plan: a line at a corner the guess passes too
+        close leaves no room where the plan will be. So the plan without lines comes first (clear
+        wherever the car can be clear; it meets every line drawn around it when it is). Where it passes
+        too close, the obstacle OCP is solved around it, and while that fails, again around the general
+        solver's last iterate (up to :data:`COLD_ROUNDS` rounds): once a round succeeds, its plan meets the
+        lines drawn around it, and the warm-started steps that follow keep it so.
         """
         assert isinstance(self.problem, FullParkingProblem)
+        tracking = self.problem.tracking
+        if tracking:
+            guess = self._reference_guess(x0, u_min, u_max)
         lines = self.problem.clearance
         if lines is None:
             return guess
-        bounds = self._open.transcription.bounds(u_min, u_max, free)
-        solver = self._general_solver(self._open) if free else self._open.solver
-        ok, _, w, _ = self._solve(solver, x0, guess, bounds)
+        plain = self._program_for(tracking, lines=False)
+        bounds = plain.transcription.bounds(u_min, u_max, free)
+        solver = self._general_solver(plain) if free else plain.solver
+        p = np.concatenate([x0, self._references.ravel() if tracking else np.zeros(0)])
+        ok, _, w, _ = self._solve(solver, p, guess, bounds)
         if not ok:
             w = guess
         states = self.transcription.unpack(w, x0)[0]
-        if ok and lines.least_slack(states, self._step_parameters(w, x0)) >= 0.0:
+        if ok and lines.least_slack(states, self._lines(w, x0).ravel()) >= 0.0:
             return w  # clear: it meets the lines drawn around it
         bounds = self.transcription.bounds(u_min, u_max, free)
         general = self._general_solver()
@@ -162,6 +203,13 @@ class FullNMPC(RecedingHorizon):
             if ok:
                 break
         return w
+
+    def _reference_guess(self, x0: np.ndarray, u_min: np.ndarray, u_max: np.ndarray) -> np.ndarray:
+        """The reference as a warm start: its states, and the rates that move the steer and speed to it."""
+        assert self.settings.prediction_dt is not None
+        states = np.vstack([x0[None, :], self._references])
+        rates = np.diff(states[:, 4:6], axis=0) / self.settings.prediction_dt
+        return self.transcription.guess(x0, np.clip(rates, u_min, u_max), states)
 
     def _cold_inputs(self) -> np.ndarray:
         # Accelerate in reverse, straight: from standing still a zero input sees no gain in moving.
@@ -194,7 +242,14 @@ class FullNMPC(RecedingHorizon):
         refused = self._refuse(x0, x0[3])
         if refused is not None:
             return refused
+        self._track(x0)
         return self._plan(x0)
+
+    def _track(self, x0: np.ndarray) -> None:
+        """Tracking: the reference of each prediction step from ``x0``, whose yaw moves to its branch."""
+        if self._reference is not None:
+            self._references = self._reference.window(x0)
+            x0[2] = self._reference.branch(float(x0[2]))
 
     def initial_steer(self, measurement: Measurement, goal: Pose) -> float | None:
         """The steer the plan would start with if the wheels could be set freely, chosen standing still."""
@@ -202,6 +257,7 @@ class FullNMPC(RecedingHorizon):
         x0 = self._state(measurement, self._goal, ())
         if self._refuse(x0, x0[3]) is not None:
             return None
+        self._track(x0)
         step = self._plan(x0, free_steer=True)
         self.reset(measurement.front_steer)
         if not step.ok:

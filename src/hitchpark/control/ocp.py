@@ -251,9 +251,11 @@ class OCP(Protocol):
 
     def discrete_dynamics(self, x: Any, u: Any) -> Any: ...
 
-    def stage_cost(self, x: Any, u: Any) -> Any: ...
+    def stage_cost(self, x: Any, u: Any, params: Any = None) -> Any:
+        """The cost of stage k; ``params``: step k's parameters (step 1's for k = 0, where X_0 is given)."""
+        ...
 
-    def terminal_cost(self, x: Any) -> Any: ...
+    def terminal_cost(self, x: Any, params: Any = None) -> Any: ...
 
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray] | None: ...
 
@@ -302,11 +304,11 @@ class TrailerParkingProblem:
         """g(X_k, U_k) = X_k + d_t f(X_k, U_k): the Euler step of Eq. (48)."""
         return x + self.settings.dt * trailer_rhs(self.vehicle, x, u)
 
-    def stage_cost(self, x: Any, u: Any) -> Any:
+    def stage_cost(self, x: Any, u: Any, params: Any = None) -> Any:
         """X_k^T Q X_k + U_k^T R U_k, Eq. (49)."""
         return ca.bilin(self._Q, x, x) + ca.bilin(self._R, u, u)
 
-    def terminal_cost(self, x: Any) -> Any:
+    def terminal_cost(self, x: Any, params: Any = None) -> Any:
         """X_N^T P X_N, Eq. (49)."""
         return ca.bilin(self._P, x, x)
 

@@ -68,7 +68,7 @@ class TrackingSettings:
         Relative length error the forward steer cap survives (as :class:`~.pure_pursuit.PurePursuitSettings`).
     """
 
-    speed: float = checked(1.0, Real(0.0, MAX_SPEED, low_open=True, unit="m/s"))
+    speed: float = checked(0.6, Real(0.0, MAX_SPEED, low_open=True, unit="m/s"))
     lookahead_forward_m: float = checked(2.5, Real(0.1, 50.0, unit="m"))
     lookahead_reverse_m: float = checked(2.5, Real(0.1, 50.0, unit="m"))
     virtual_limit: float = checked(0.5, Real(0.0, math.pi / 2, low_open=True, high_open=True, unit="rad"))

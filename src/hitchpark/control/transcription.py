@@ -59,6 +59,19 @@ class Transcription:
         return g, lb, ub
 
 
+def _step_params(problem: OCP, extra: Any, k: int) -> Any:
+    """The parameters of prediction step k = 1..N."""
+    return extra[(k - 1) * problem.n_p : k * problem.n_p]
+
+
+def _cost(problem: OCP, xs: list[Any], us: list[Any], extra: Any) -> Any:
+    """Stage costs of k = 0..N-1 and the terminal cost, each with its step's parameters (X_0's stage, where
+    X_0 is given, with step 1's)."""
+    N = len(us)
+    stages = sum(problem.stage_cost(xs[k], us[k], _step_params(problem, extra, max(k, 1))) for k in range(N))
+    return stages + problem.terminal_cost(xs[N], _step_params(problem, extra, N))
+
+
 def _flat(values: list[Any]) -> np.ndarray:
     if not values:
         return np.zeros(0)
@@ -80,12 +93,12 @@ class MultipleShooting(Transcription):
         for k in range(N):
             w += [xs[k], us[k]]
         w.append(xs[N])
-        cost = sum(problem.stage_cost(xs[k], us[k]) for k in range(N)) + problem.terminal_cost(xs[N])  # Eq. (49)
+        cost = _cost(problem, xs, us, extra)  # Eq. (49)
         g: list[Any] = [xs[0] - x0]  # X_0 = p: the first nx constraints
         lbg, ubg = [np.zeros(nx)], [np.zeros(nx)]
 
         def add(k: int) -> None:  # the rows on X_k (k >= 1), with their step's parameters
-            rows, lo, hi = problem.step_rows(xs[k], extra[(k - 1) * problem.n_p : k * problem.n_p])
+            rows, lo, hi = problem.step_rows(xs[k], _step_params(problem, extra, k))
             g.extend(rows)
             lbg.append(np.array(lo, dtype=float))
             ubg.append(np.array(hi, dtype=float))
@@ -163,7 +176,7 @@ class SingleShooting(Transcription):
         xs = [x0]
         for k in range(N):
             xs.append(problem.discrete_dynamics(xs[k], us[k]))  # Eq. (48)
-        cost = sum(problem.stage_cost(xs[k], us[k]) for k in range(N)) + problem.terminal_cost(xs[N])  # Eq. (51)
+        cost = _cost(problem, xs, us, extra)  # Eq. (51)
         pg, plb, pub = self._path_constraints(xs, us)
         sg, slb, sub = [], [], []
         x_bounds = problem.state_bounds()
@@ -174,7 +187,7 @@ class SingleShooting(Transcription):
                 slb += [x_bounds[0][i] for i in rows]
                 sub += [x_bounds[1][i] for i in rows]
         for k in range(1, N + 1):
-            rows_k, lo, hi = problem.step_rows(xs[k], extra[(k - 1) * problem.n_p : k * problem.n_p])
+            rows_k, lo, hi = problem.step_rows(xs[k], _step_params(problem, extra, k))
             sg += rows_k
             slb += lo
             sub += hi

@@ -30,6 +30,7 @@ from ..control.guard import Guard
 from ..control.nmpc import FullNMPC, TrailerNMPC
 from ..control.path_tracking import PathTracker, direction_segments
 from ..control.planner import Plan, plan
+from ..control.reference import PathReference
 from ..model.plant import Measurement
 from ..model.scene import Scene
 from ..model.state import Pose, from_goal_frame, to_goal_frame
@@ -148,15 +149,23 @@ class PlannedProcess:
             self.queue = deque(self._stages(None, s.as_array()[None, :], goal))
             return self.queue.popleft()
         self.rounds += 1
-        # To the goal line, ``handover_m`` to ``approach`` out (the NMPC parks best from a straight approach),
-        # within 60% of the time limit; if that fails, to the goal itself. In open space the search heads for
-        # the goal (its opening then finds more single reverse runs); among obstacles for the near end of
-        # that stretch (measured: the loading dock is found in 2.6 s so, not in 5 s the other way).
+        # Tracked by the NMPC, to the goal itself; among obstacles, if that fails within half the time limit,
+        # to the goal line ``handover_m`` to ``approach`` out (measured: the loading dock is found so, its
+        # approach a sub-goal). Tracked by pure pursuit, the NMPC parks best from a straight approach: to
+        # that stretch of the goal line first, within 60% of the time limit, then to the goal. In open space
+        # the search heads for the goal (its opening then finds more single reverse runs); among obstacles
+        # for the near end of that stretch (measured: the loading dock is found in 2.6 s so, not in 5 s the
+        # other way).
         near = min(self.settings.process.handover_m, approach)
         budget = self.planner.time_limit_s
         aim = Pose(*from_goal_frame(goal, near, 0.0, 0.0))
         line = (goal, near, approach, 0.6) if self.scene.is_empty else (aim, 0.0, approach - near, 0.6)
-        todo = [line, (goal, 0.0, 0.0, 0.4)] if approach > 0.0 else [(goal, 0.0, 0.0, 1.0)]
+        if approach <= 0.0 or (self._tracked and self.scene.is_empty):
+            todo = [(goal, 0.0, 0.0, 1.0)]
+        elif self._tracked:
+            todo = [(goal, 0.0, 0.0, 0.5), line]
+        else:
+            todo = [line, (goal, 0.0, 0.0, 0.4)]
         spent = 0.0
         for i, (target, first, last, share) in enumerate(todo):
             limit = share * budget if i < len(todo) - 1 else budget - spent
@@ -175,7 +184,7 @@ class PlannedProcess:
             if self.scene.is_empty:
                 return self._fall_back(measurement, goal)
             return Ending(Outcome.NO_PATH, f"planner: {found.status}: {found.detail}")
-        self.queue = deque(self._stages(found.path["direction"], found.states, goal))
+        self.queue = deque(self._stages(found.path["direction"], found.states, goal, found.path["front_steer"]))
         return self.queue.popleft()
 
     def _correction(self, measurement: Measurement, goal: Pose) -> list[Stage]:
@@ -200,6 +209,11 @@ class PlannedProcess:
         )
         return [self._guarded(TrackingStage(forward)), *self._stages(None, line[-1:], goal)]
 
+    @property
+    def _tracked(self) -> bool:
+        """Whether the NMPC tracks the last reverse segment (the full model's NMPC, ``process.nmpc_tracking``)."""
+        return self.settings.process.nmpc_tracking and isinstance(self.nmpc, FullNMPC)
+
     def _approach(self, goal: Pose) -> float:
         """Length of the straight final approach [m]: ``process.approach_m``, halved until it keeps clear."""
         length = self.settings.process.approach_m
@@ -212,7 +226,9 @@ class PlannedProcess:
             length /= 2
         return 0.0
 
-    def _stages(self, direction: np.ndarray | None, configs: np.ndarray, goal: Pose) -> list[Stage]:
+    def _stages(
+        self, direction: np.ndarray | None, configs: np.ndarray, goal: Pose, steer: np.ndarray | None = None
+    ) -> list[Stage]:
         """The stages that drive a path (its ``direction`` and ``configs``; None: the path is ``configs[0]``
         alone) and the straight approach after it: one per direction segment, the NMPC at the end.
 
@@ -220,22 +236,39 @@ class PlannedProcess:
         segment goes on along the goal line to the goal itself, its tracker pursuing the line, and hands
         over to the NMPC ``process.handover_m`` before the goal.
         """
+        steer = np.zeros(len(configs)) if steer is None else steer
         segments = []
         if direction is not None:
             segments = [(configs[a : b + 1], int(direction[a + 1])) for a, b in direction_segments(direction)]
         end = to_goal_frame(goal, configs[-1, 0], configs[-1, 1], configs[-1, 2])[0]
         line = straight_approach(goal, max(float(end), 0.0), 0.1)[::-1]  # from abreast of the path's end to the goal
+        # The NMPC's reference: the planned part of the last segment and its front steer (it makes its own
+        # line to the goal, closing the gap to it gradually).
         if segments and segments[-1][1] < 0:
+            planned, planned_steer = segments[-1][0], steer[len(configs) - len(segments[-1][0]) :]
             segments[-1] = (np.vstack([segments[-1][0], line]), -1)
         else:
+            planned, planned_steer = configs[-1:], steer[-1:]
             segments.append((np.vstack([configs[-1:], line]), -1))
         stages: list[Stage] = []
+        track = self._tracked
         for i, (part, d) in enumerate(segments):
-            until = self.settings.process.handover_m if i == len(segments) - 1 else 0.0
+            last = i == len(segments) - 1
+            if last and track:
+                break
+            until = self.settings.process.handover_m if last else 0.0
             tracker = PathTracker(self.vehicle, self.tracking, self.settings.nmpc.dt, part, d, until)
             if tracker.stop_at > 0.0:
                 stages.append(self._guarded(TrackingStage(tracker)))
-        stages.append(self._guarded(ReverseStage(self.nmpc)))
+        reference = None
+        if track:
+            s = self.settings.nmpc
+            assert s.prediction_dt is not None and s.horizon is not None
+            speed = self.tracking.speed
+            reference = PathReference(
+                planned, goal, speed, self.vehicle.max_accel, s.prediction_dt, s.horizon, planned_steer
+            )
+        stages.append(self._guarded(ReverseStage(self.nmpc, reference, self.tracking.max_deviation_m)))
         return stages
 
     def _guarded(self, stage: Stage) -> Stage:

@@ -11,7 +11,7 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from ..checks import Choice, Integer, Real, build, check_fields, check_keys, check_mapping, checked
+from ..checks import Choice, Flag, Integer, Real, build, check_fields, check_keys, check_mapping, checked
 from ..control.ocp import NMPCSettings
 from ..control.path_tracking import TrackingSettings
 from ..control.planner import PlannerSettings
@@ -74,8 +74,11 @@ class ProcessSettings:
         it keeps clear of the scene). The NMPC parks best from a straight approach, as after the paper's
         forward stage.
     handover_m : float
-        The last reverse segment is tracked until this much of it is left to the goal [m]; the NMPC
-        parks the rest.
+        Without ``nmpc_tracking``, the last reverse segment is tracked by pure pursuit until this much of
+        it is left to the goal [m]; the NMPC parks the rest.
+    nmpc_tracking : bool
+        The full NMPC tracks the whole last reverse segment to the goal (its tracking OCP, the plan as
+        reference, :class:`~hitchpark.control.reference.PathReference`).
     plan_margin_m : float
         The planner keeps ``success.min_clearance_m`` plus this [m]: room for the tracking error.
     guard_margin_m : float
@@ -87,6 +90,7 @@ class ProcessSettings:
     max_replans: int = checked(4, Integer(0, 100))
     approach_m: float = checked(8.0, Real(0.0, 100.0, unit="m"))
     handover_m: float = checked(4.0, Real(0.0, 100.0, unit="m"))
+    nmpc_tracking: bool = checked(True, Flag())
     plan_margin_m: float = checked(0.1, Real(0.0, 5.0, unit="m"))
     guard_margin_m: float = checked(0.03, Real(0.0, 5.0, unit="m"))
 

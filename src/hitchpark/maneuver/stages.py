@@ -9,15 +9,18 @@ ends. The staged process alternates a reverse and a forward stage (Fig. 7), buil
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
+from ..checks import InputError
 from ..control.guard import Guard
 from ..control.nmpc import FullNMPC, NMPCStep, TrailerNMPC, make_nmpc
 from ..control.path_tracking import PathTracker
 from ..control.planner import Plan
 from ..control.pure_pursuit import ForwardPursuit
+from ..control.reference import PathReference
 from ..model.plant import Command, Measurement
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
@@ -64,13 +67,22 @@ class Stage(Protocol):
 
 
 class ReverseStage:
-    """Reverse under an NMPC (the paper's or the full model's) until its optimal speed is zero."""
+    """Reverse under an NMPC (the paper's or the full model's) until its optimal speed is zero.
+
+    With a ``reference`` (the full model's NMPC only) the NMPC tracks that path to the goal; the stage
+    gives up (``ok`` False, the car stopped) when the trailer axle strays more than ``max_deviation_m``
+    from it, so that the process can plan again.
+    """
 
     kind = "reverse"
     controller = "nmpc"
 
-    def __init__(self, nmpc: TrailerNMPC | FullNMPC):
-        self.nmpc = nmpc
+    def __init__(
+        self, nmpc: TrailerNMPC | FullNMPC, reference: PathReference | None = None, max_deviation_m: float = math.inf
+    ):
+        if reference is not None and not isinstance(nmpc, FullNMPC):
+            raise InputError("only the full model's NMPC (nmpc.kind 'full') tracks a path")
+        self.nmpc, self.reference, self.max_deviation_m = nmpc, reference, max_deviation_m
 
     @property
     def rate_limited(self) -> bool:
@@ -82,10 +94,17 @@ class ReverseStage:
 
     def begin(self, measurement: Measurement, goal: Pose) -> float | None:
         self.nmpc.reset(measurement.front_steer)
+        if isinstance(self.nmpc, FullNMPC):
+            self.nmpc.follow(self.reference)
         return self.nmpc.initial_steer(measurement, goal)
 
     def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> NMPCStep:
-        return self.nmpc.act(measurement, goal, in_flight)
+        step = self.nmpc.act(measurement, goal, in_flight)
+        if self.reference is not None and self.reference.deviation > self.max_deviation_m:
+            self.nmpc.reset(step.front_steer)
+            why = f"deviated {self.reference.deviation:.2f} m from the planned path"
+            return replace(step, trailer_speed=0.0, rear_speed=0.0, ok=False, stop=True, status=why)
+        return step
 
 
 class ForwardStage:

@@ -360,8 +360,11 @@ class _Search:
         return "exhausted", -1
 
     def _length(self, nodes: list[Node], last: int) -> float:
-        """Trailer-axle length [m] of the path ending at node ``last``."""
-        return float(self._path(nodes, last)["s"][-1])
+        """Trailer-axle length [m] of the path ending at node ``last``, and of the straight along the goal line
+        from its end to the goal that follows it (a path to the goal line's far end is that much longer)."""
+        assert self.endgame is not None
+        remaining = max(self.endgame.in_goal_frame(nodes[last].state)[0], 0.0)
+        return float(self._path(nodes, last)["s"][-1]) + remaining
 
     def _land(self, nodes: list[Node], index: int, dubins: bool, max_length: float) -> int | None:
         """End-games from node ``index`` (:mod:`.endgame`); the new goal node's index if one lands clear.

@@ -126,7 +126,7 @@ class PlannerSettings:
     search_margin_m: float = checked(10.0, Real(0.0, 1000.0, unit="m"))
     weight_forward: float = checked(1.0, Real(0.0, 1000.0, low_open=True))
     weight_reverse: float = checked(1.0, Real(0.0, 1000.0, low_open=True))
-    weight_switch: float = checked(12.0, _WEIGHT)
+    weight_switch: float = checked(22.0, _WEIGHT)
     weight_steer: float = checked(0.2, _WEIGHT)
     weight_steer_change: float = checked(0.5, _WEIGHT)
     weight_hitch: float = checked(0.5, _WEIGHT)
