@@ -223,7 +223,8 @@ def test_a_start_beside_the_goal_pulls_forward_then_reverses_once():
 
 
 def test_without_end_games_the_search_alone_finds_a_path():
-    settings = replace(SETTINGS, shot_length_m=0.0)
+    # A switch at 12 m of path: the search alone, greedy, takes three times as long at 22 m.
+    settings = replace(SETTINGS, shot_length_m=0.0, weight_switch=12.0)
     result = plan(VEHICLE, State(10.0, 1.0, 0.0, 0.0), Pose(), Scene(), settings)
     check_path(result, VEHICLE, settings, Pose())
 
