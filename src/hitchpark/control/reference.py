@@ -119,12 +119,14 @@ class PathReference:
         :meth:`_speed` per step; past the goal it is the goal at rest.
         """
         s = self.locate(float(x0[0]), float(x0[1]))
-        out = np.zeros((self.horizon, 6))
+        ahead = np.empty(self.horizon)
         for k in range(self.horizon):
-            v = float(self._speed(s))
-            s = min(s + v * self.dt, self.length)
-            out[k, :5] = [np.interp(s, self.s, self.points[:, i]) for i in range(5)]
-            out[k, 5] = -float(self._speed(s))  # reverse
+            s = min(s + min(self.speed, math.sqrt(2.0 * self.brake * max(self.length - s, 0.0))) * self.dt, self.length)
+            ahead[k] = s
+        out = np.empty((self.horizon, 6))
+        for i in range(5):
+            out[:, i] = np.interp(ahead, self.s, self.points[:, i])
+        out[:, 5] = -self._speed(ahead)  # reverse
         return out
 
     @property
