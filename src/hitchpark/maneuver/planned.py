@@ -50,7 +50,9 @@ from .stages import (
 
 __all__ = ["ON_LINE_ANGLE", "ON_LINE_M", "PlannedProcess", "straight_approach"]
 
-#: A correction (the NMPC ended unparked near the goal) pulls forward to this far beyond ``handover_m`` [m].
+#: A correction (the NMPC ended unparked near the goal) pulls forward to this far beyond ``handover_m`` [m]
+#: when pure pursuit tracks the approach; to ``handover_m`` when the NMPC does (measured over 100 starts:
+#: as many park, the median path 1.3 m shorter; 2.5 m out parks fewer).
 CORRECTION_M = 3.0
 
 #: Corrections at most per maneuver.
@@ -188,15 +190,16 @@ class PlannedProcess:
         return self.queue.popleft()
 
     def _correction(self, measurement: Measurement, goal: Pose) -> list[Stage]:
-        """Forward along the goal line to ``handover_m + CORRECTION_M`` out (less if that is not clear), then
-        the straight approach (tracked, then the NMPC); none if the car is not near the line, or no such
-        line keeps clear."""
+        """Forward along the goal line to ``handover_m`` out (``handover_m + CORRECTION_M`` if pure pursuit
+        tracks the approach; less if that is not clear), then the straight approach; none if the car is not
+        near the line, or no such line keeps clear."""
         s = measurement.state
         gx, gy, gyaw = (float(v) for v in to_goal_frame(goal, s.x, s.y, s.yaw))
         self.corrections += 1
         if self.corrections > MAX_CORRECTIONS or gx < -0.5 or abs(gy) > 0.5 or abs(gyaw) > math.radians(15.0):
             return []
-        for extra in (CORRECTION_M, 2.0, 1.0, 0.0):  # as far out as keeps clear
+        extras = (0.0, -1.0, -2.0) if self._tracked else (CORRECTION_M, 2.0, 1.0, 0.0)
+        for extra in extras:  # as far out as keeps clear
             out = self.settings.process.handover_m + extra
             line = straight_approach(goal, out, 0.1)
             if out >= max(gx, 0.0) + 1.0 and (self.guard is None or self.guard.clear(line)):
