@@ -62,6 +62,15 @@ def test_the_obstacle_ocp_is_benched_on_the_scenes_and_a_slow_route_is_cut_short
     assert f"first {fatrop.calls} of {bench.problems}" in bench_table({"obstacles": bench})
 
 
+def test_the_tracking_ocp_is_benched_on_the_problems_of_the_nmpc_tracking_the_plan():
+    bench = run_bench(["tracking"], ["ipopt", "fatrop_c"], n_starts=1, horizons=(10,))["tracking"]
+    assert bench.starts == 1 and bench.problems > 100  # the NMPC drives the whole reverse run
+    ipopt, fast = bench.routes["ipopt"], bench.routes["fatrop_c"]
+    assert ipopt.failures == 0 and fast.failures == 0 and fast.calls == bench.problems
+    assert fast.max_move_diff < 1e-3
+    assert set(bench.horizon_scaling_ms) == {"10"}
+
+
 def test_cli_bench_writes_the_schema(tmp_path, capsys):
     out = tmp_path / "bench.json"
     argv = ["bench", "--json", str(out), "--ocp", "paper", "--routes", "ipopt", "--starts", "1", "--no-scaling"]

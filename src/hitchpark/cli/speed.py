@@ -67,7 +67,9 @@ def add_speed_commands(sub: argparse._SubParsersAction) -> None:
         "route's median at N = 10, 20, 40 and 80.",
     )
     p.add_argument("--json", required=True, metavar="FILE", help="where to write the results")
-    p.add_argument("--ocp", metavar="NAMES", help="OCPs to bench, comma-separated (default: paper,full,obstacles)")
+    p.add_argument(
+        "--ocp", metavar="NAMES", help="OCPs to bench, comma-separated (default: paper,full,obstacles,tracking)"
+    )
     p.add_argument("--routes", metavar="NAMES", help="routes to time, comma-separated (default: all registered)")
     p.add_argument(
         "--starts", type=int, default=12, metavar="K", help="closed-loop starts recorded per OCP (default 12)"
