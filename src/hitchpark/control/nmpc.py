@@ -89,6 +89,9 @@ class FullNMPC(RecedingHorizon):
     ``act`` takes the measurement (pose, hitch, actual steer and speed) and the commands
     issued but not yet acted on (the known delay), predicts the state at which the new
     command will act, solves, and commands the planned steer and speed one sample ahead.
+    It parks at the goal, or tracks a planned path to it (:meth:`follow`, the tracking OCP),
+    and among obstacles keeps clear of them (:meth:`keep_clear`, the obstacle OCP): one OCP
+    per combination, each built when first needed.
     """
 
     def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings | None = None):

@@ -1,13 +1,15 @@
 """The planned process: plan a path among the obstacles, track it, and plan again when it cannot be followed.
 
 From the measured start, :func:`~hitchpark.control.planner.plan` finds a path on the full model that
-keeps ``success.min_clearance_m + process.plan_margin_m`` from the scene and ends on the goal line,
-``process.handover_m`` to ``process.approach_m`` out, heading along it (failing that, at the goal
-itself); a straight reverse along the line to the goal follows (the NMPC parks best from a straight
-approach, as after the paper's forward stage). The direction segments become stages, each tracked by
-a :class:`~hitchpark.control.path_tracking.PathTracker` between standstills; the reverse NMPC parks the
-last ``process.handover_m`` to the millimetre. Among obstacles every stage is guarded
-(:class:`~hitchpark.control.guard.Guard`).
+keeps ``success.min_clearance_m + process.plan_margin_m`` from the scene and ends at the goal (among
+obstacles, failing that within half the time limit, on the goal line ``process.handover_m`` to
+``process.approach_m`` out, heading along it, a straight reverse along the line following). The direction
+segments become stages between standstills: the full NMPC tracks the last reverse segment to the goal
+(``process.nmpc_tracking``, its reference :class:`~hitchpark.control.reference.PathReference`), a
+:class:`~hitchpark.control.path_tracking.PathTracker` drives the others. (Without ``nmpc_tracking`` the
+tracker drives the last one too, until ``process.handover_m`` is left, and the NMPC parks the rest; the
+path then ends on the goal line first, the NMPC parking best from a straight approach.) Among obstacles
+every stage is guarded (:class:`~hitchpark.control.guard.Guard`).
 
 When the NMPC ends unparked near the goal, the car pulls forward straight along the goal line (as far
 as keeps clear) and reverses again. When a stage cannot go on (the car strayed from the path, a body
