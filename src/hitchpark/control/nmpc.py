@@ -121,6 +121,12 @@ class FullNMPC(RecedingHorizon):
         check_range("clearance_m", clearance_m, 0.0, 10.0, unit="m")
         self.reset(self._last_steer)
         self._scene, self._clearance_m = scene, float(clearance_m)
+        # Every OCP this scene may need, and the general route of its free-steer problems, built now rather
+        # than in the first tick of a stage (``hitchpark realtime``).
+        lines = not scene.is_empty and self.settings.obstacle_planes > 0
+        for tracking in (False, True):
+            for with_lines in {False, lines}:
+                self._general_solver(self._program_for(tracking, with_lines))
         self._program = self._program_for(self._reference is not None)
 
     def follow(self, reference: PathReference | None) -> None:
