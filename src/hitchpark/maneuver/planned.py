@@ -238,8 +238,9 @@ class PlannedProcess:
         alone) and the straight approach after it: one per direction segment, the NMPC at the end.
 
         The path ends within the planner's goal tolerance of the approach's start; the last reverse
-        segment goes on along the goal line to the goal itself, its tracker pursuing the line, and hands
-        over to the NMPC ``process.handover_m`` before the goal.
+        segment goes on along the goal line to the goal itself. The NMPC tracks it all (its reference the
+        planned part and its own line, ``steer`` the plan's front steer at each row); without
+        ``nmpc_tracking`` a tracker pursues it and hands over to the NMPC ``process.handover_m`` before the goal.
         """
         steer = np.zeros(len(configs)) if steer is None else steer
         segments = []
