@@ -156,19 +156,25 @@ class FullNMPC(RecedingHorizon):
             program.problem.clearance.use(self._scene, self._clearance_m)
         return program
 
-    def _lines(self, warm: np.ndarray, x0: np.ndarray) -> np.ndarray:
-        """The scene's lines of each step (N, n) drawn around the warm start ((N, 0) in open space)."""
-        assert isinstance(self.problem, FullParkingProblem)
-        lines, n = self.problem.clearance, self.problem.horizon
+    def _lines(self, warm: np.ndarray, x0: np.ndarray, problem: FullParkingProblem | None = None) -> np.ndarray:
+        """The scene's lines of each step (N, n) drawn around the warm start ((N, 0) in open space), for
+        ``problem`` (default: the OCP solved now)."""
+        ocp = problem if problem is not None else self.problem
+        assert isinstance(ocp, FullParkingProblem)
+        lines, n = ocp.clearance, ocp.horizon
         if lines is None:
             return np.zeros((n, 0))
         states, _ = self.transcription.unpack(warm, x0)
         return lines.parameters(self._goal, np.vstack([x0[None, :], states[1:]])).reshape(n, -1)
 
-    def _step_parameters(self, warm: np.ndarray, x0: np.ndarray) -> np.ndarray:
-        assert isinstance(self.problem, FullParkingProblem)
-        refs = self._references if self.problem.tracking else np.zeros((self.problem.horizon, 0))
-        return np.hstack([refs, self._lines(warm, x0)]).ravel()
+    def _step_parameters(
+        self, warm: np.ndarray, x0: np.ndarray, problem: FullParkingProblem | None = None
+    ) -> np.ndarray:
+        """Each step's reference (tracking) and lines (among obstacles), for ``problem`` (default: now)."""
+        ocp = problem if problem is not None else self.problem
+        assert isinstance(ocp, FullParkingProblem)
+        refs = self._references if ocp.tracking else np.zeros((ocp.horizon, 0))
+        return np.hstack([refs, self._lines(warm, x0, ocp)]).ravel()
 
     def _cold_start(
         self, x0: np.ndarray, guess: np.ndarray, u_min: np.ndarray, u_max: np.ndarray, free: Any
@@ -194,7 +200,8 @@ class FullNMPC(RecedingHorizon):
         plain = self._program_for(tracking, lines=False)
         bounds = plain.transcription.bounds(u_min, u_max, free)
         solver = self._general_solver(plain) if free else plain.solver
-        p = np.concatenate([x0, self._references.ravel() if tracking else np.zeros(0)])
+        assert isinstance(plain.problem, FullParkingProblem)
+        p = np.concatenate([x0, self._step_parameters(guess, x0, plain.problem)])
         ok, _, w, _ = self._solve(solver, p, guess, bounds)
         if not ok:
             w = guess
