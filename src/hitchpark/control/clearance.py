@@ -269,8 +269,10 @@ class ClearanceConstraints:
         h = np.einsum("kjx,jvx->kjv", n, vertices).max(axis=2)
         return distance, n, h
 
-    def parameters(self, goal: Pose, states: np.ndarray) -> np.ndarray:
-        """The lines of each prediction step, flat: ``states`` are X_0..X_N of the warm start, parking frame."""
+    def parameters(self, goal: Pose, states: np.ndarray, anchored: bool = True) -> np.ndarray:
+        """The lines of each prediction step, flat: ``states`` are X_0..X_N of the warm start, parking frame.
+        ``anchored``: an edge's line leaves the gap at X_0 too (see the module text); a planned path, far
+        longer than a horizon, takes each line from its own step alone."""
         states = np.asarray(states, dtype=float)
         n_steps = len(states) - 1
         out = np.tile(np.array(_UNUSED), (n_steps, len(self.bodies), self.planes, 1))
@@ -291,8 +293,8 @@ class ClearanceConstraints:
         if not len(pieces):
             return out.reshape(n_steps * self.n_params)
         n_bodies = len(self.bodies)
-        anchors = np.repeat(bodies[:, :1], n_steps, axis=1)
-        distance, n, h = self.lines(bodies[:, 1:].reshape(-1, 4, 2), goal, anchors.reshape(-1, 4, 2), pieces)
+        anchors = np.repeat(bodies[:, :1], n_steps, axis=1).reshape(-1, 4, 2) if anchored else None
+        distance, n, h = self.lines(bodies[:, 1:].reshape(-1, 4, 2), goal, anchors, pieces)
         take = min(self.planes, len(pieces))
         nearest = np.argsort(distance, axis=1)[:, :take]  # (b k, take)
         rows = np.arange(len(distance))[:, None]

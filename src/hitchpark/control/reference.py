@@ -1,7 +1,8 @@
 """A planned reverse path as the full NMPC's reference: where the car should be at each prediction step.
 
-The last reverse segment of a plan ends within the planner's goal tolerance of the goal (or of the goal
-line, a straight approach following); the NMPC tracks it to the goal itself. :class:`PathReference` keeps
+The last reverse segment of a plan ends at the goal, settled (the planner's refined end-game), or, where
+that could not be had, within the planner's goal tolerance of it (or of the goal line, a straight
+approach following); the NMPC tracks it to the goal itself. :class:`PathReference` keeps
 the segment in the parking frame of the goal, as the NMPC's states are (trailer axle x, y, yaw, hitch,
 front steer, rear speed), and ends it exactly at the goal: the gap between the planned end and the
 straight approach (or the goal) is closed gradually over the last :data:`BLEND_M` of the plan, so the

@@ -237,8 +237,8 @@ class PlannedProcess:
         """The stages that drive a path (its ``direction`` and ``configs``; None: the path is ``configs[0]``
         alone) and the straight approach after it: one per direction segment, the NMPC at the end.
 
-        The path ends within the planner's goal tolerance of the approach's start; the last reverse
-        segment goes on along the goal line to the goal itself. The NMPC tracks it all (its reference the
+        The path ends at the approach's start (refined) or within the planner's goal tolerance of it; the
+        last reverse segment goes on along the goal line to the goal itself. The NMPC tracks it all (its reference the
         planned part and its own line, ``steer`` the plan's front steer at each row); without
         ``nmpc_tracking`` a tracker pursues it and hands over to the NMPC ``process.handover_m`` before the goal.
         """

@@ -21,6 +21,7 @@ from .heuristic import TrailerTable, trailer_table
 from .motion import PrimitiveBatch
 from .nodes import Node
 from .opening import OPENING_FORWARD_M, opening
+from .refine import REFINE_PLANES, refine_plan, refine_solver
 from .settings import Plan, PlannerSettings, arrived
 
 __all__ = ["plan"]
@@ -54,9 +55,10 @@ def plan(
     ``max_hitch - hitch_margin`` at every sample. Collisions are screened with discs on a distance grid
     of the scene; the path found is confirmed by the exact
     :func:`~hitchpark.model.collision.swept_clearance` (a path that fails it is dropped and the search
-    goes on). The path ends within the goal tolerance, not exactly at the goal: the tracking NMPC
-    closes the last centimetres. Never raises for a hard problem: ``status`` says ``no_path`` or
-    ``timeout``. Bad arguments raise :class:`~hitchpark.checks.InputError`.
+    goes on). The search stops within the goal tolerance; the end of the path's last reverse run is
+    then solved again to end exactly at the goal, settled (``refine_m``,
+    :mod:`~hitchpark.control.planner.refine`), where that keeps clear. Never raises for a hard problem:
+    ``status`` says ``no_path`` or ``timeout``. Bad arguments raise :class:`~hitchpark.checks.InputError`.
     """
     vehicle = check_vehicle(vehicle)
     check_state(vehicle, start)
@@ -68,7 +70,7 @@ def plan(
         raise InputError(
             f"planner.hitch_margin must be < max_hitch ({vehicle.max_hitch:g} rad), got {settings.hitch_margin:g}"
         )
-    _prepare(vehicle, goal, settings)
+    _prepare(vehicle, goal, scene, settings)
     began = time.perf_counter()
     expanded = 0
     for refinement in range(REFINEMENTS + 1):
@@ -77,7 +79,7 @@ def plan(
         result = search.run()
         expanded = result.expanded
         if not search.exhausted or refinement == REFINEMENTS:
-            return result
+            return refine_plan(vehicle, goal, scene, settings, result) if result.found else result
         # The grid was too coarse to hold a way through: halve every cell and search again.
         settings = replace(
             settings,
@@ -88,7 +90,7 @@ def plan(
     return result  # pragma: no cover (the loop returns)
 
 
-def _prepare(vehicle: VehicleTrailer, goal: Pose, settings: PlannerSettings) -> None:
+def _prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: PlannerSettings) -> None:
     """Build the batch rollouts a search uses before its clock starts.
 
     They are compiled to C once per machine (cached on disk, :func:`~hitchpark.native.native`) and loaded
@@ -101,6 +103,8 @@ def _prepare(vehicle: VehicleTrailer, goal: Pose, settings: PlannerSettings) -> 
     PrimitiveBatch(vehicle, settings.primitive_length_m, settings.samples, 2 * settings.steer_samples)
     if settings.shot_length_m:
         EndGame(vehicle, goal, settings)
+    if settings.refine_m:
+        refine_solver(vehicle, vehicle.max_hitch - settings.hitch_margin, 0 if scene.is_empty else REFINE_PLANES)
 
 
 class _Search:

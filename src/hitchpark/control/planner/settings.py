@@ -70,7 +70,11 @@ class PlannerSettings:
         See ``shot_length_m`` [rad].
     goal_tolerance_m, goal_tolerance_yaw, goal_tolerance_hitch : float
         The search ends at the first sample within these of the goal: trailer-axle distance [m], heading
-        [rad], hitch angle [rad]. The last centimetres are left to the tracking NMPC.
+        [rad], hitch angle [rad]; ``refine_m`` then takes the path exactly to the goal.
+    refine_m : float
+        The last this much trailer-axle path [m] of the path's last reverse run (if it ends in reverse) is
+        solved again on the full model to end exactly at the goal (or on its line), hitch and steer
+        straight (:mod:`~hitchpark.control.planner.refine`); 0: the path ends where the search stopped.
     goal_line_from_m, goal_line_m : float
         The path may end anywhere on the goal line from ``goal_line_from_m`` to ``goal_line_m`` ahead of
         the goal [m] (within the goal tolerance of that segment, heading along it, hitch straight): the
@@ -119,6 +123,7 @@ class PlannerSettings:
     goal_tolerance_m: float = checked(0.3, Real(0.0, 10.0, low_open=True, unit="m"))
     goal_tolerance_yaw: float = checked(math.radians(3.0), _ANGLE)
     goal_tolerance_hitch: float = checked(math.radians(3.0), _ANGLE)
+    refine_m: float = checked(20.0, Real(0.0, 100.0, unit="m"))
     goal_line_from_m: float = checked(0.0, Real(0.0, 100.0, unit="m"))
     goal_line_m: float = checked(0.0, Real(0.0, 100.0, unit="m"))
     min_clearance_m: float = checked(0.2, Real(0.0, 10.0, unit="m"))

@@ -1,0 +1,311 @@
+"""The optimised end-game: the end of a path's last reverse run, solved again to end exactly at the goal.
+
+The search stops at the first sample within the goal tolerance (0.3 m, 3 deg, 3 deg of hitch): its
+runs land there with the hitch and the steer still swinging (measured: hitch 20 deg and steer 40 deg
+2 m before the end of some landings), which no controller can follow to the 0.5 deg of a parked
+trailer. This module takes the last ``refine_m`` of trailer-axle path of the last reverse run and finds,
+on the full model (Eqs. 19-24) at the same speed, the nearby path that starts where that part starts
+(pose, hitch and front steer) and ends exactly on the goal (or its line) at rest: trailer heading along
+the goal, hitch and front steer straight. Its front steer moves within ``max_steer_rate`` (per second
+at 1 m/s) and ``max_steer``, its hitch within ``max_hitch - hitch_margin``.
+
+A nonlinear program by direct multiple shooting (one RK4 step per interval, a fixed number of intervals,
+their length free within limits: the path may grow or shrink a little), solved by IPOPT from the
+search's own path. The cost keeps the trailer axle near the searched path (which passed the
+collision check) and the steer rate low. The caller checks the result's clearance; when IPOPT fails the
+searched path stays.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import time
+from dataclasses import replace
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from ...model.collision import swept_clearance
+from ...model.kinematics import full_rhs
+from ...model.scene import Scene
+from ...model.state import Pose, from_goal_frame, to_goal_frame
+from ...model.vehicle import VehicleTrailer
+from ..clearance import ClearanceConstraints
+from .settings import PATH_COLUMNS, Plan, PlannerSettings
+
+__all__ = ["REFINE_PLANES", "REFINE_STEPS", "refine_end", "refine_plan", "refine_solver"]
+
+#: Intervals of the refined part (its length / REFINE_STEPS each: 0.125 m of rear axle over 10 m).
+REFINE_STEPS = 80
+
+#: The refined part may be this much shorter or longer than the part it replaces (a ratio).
+LENGTH_RANGE = (0.6, 1.6)
+
+#: The refined path ends with this straight stretch along the goal line [m].
+SETTLE_M = 1.0
+
+#: Among obstacles, each node keeps clear of this many of the scene's pieces nearest to each body (the
+#: separating lines of :mod:`~hitchpark.control.clearance`).
+REFINE_PLANES = 2
+
+#: The refined path's nodes keep ``min_clearance_m`` and half CHECK_STEP_M more (the NLP's constraints);
+#: its exact swept clearance is then checked in sub-steps of CHECK_STEP_M [m], a bound low by at most
+#: half of that, which is allowed for. (At the 0.05 m of the search's check, curb_parallel's path along
+#: the lines 0.3 m from the curb and the cars is bounded at 0.275 m; its goal keeps 0.325 m, and lines
+#: at 0.31 m leave no path to it.)
+CHECK_STEP_M = 0.01
+
+#: The first guess closes the gap between the searched run's end and the goal over this much of its
+#: end [m of rear axle].
+BLEND_M = 3.0
+
+#: Cost weights, per m of path: of the squared trailer-axle distance from the searched path [1/m^2], of
+#: the squared steer rate [(rad/m)^-2], hitch and steer [rad^-2]. In open space the path may move off the
+#: searched one to settle; among obstacles it stays near it, which kept clear (measured at the campsite:
+#: the looser path cut past the trees, where the NMPC's separating lines, taken from its warm start,
+#: then cut through that warm start by up to 0.43 m, and the SQP route failed on such problems).
+WEIGHTS = (0.1, 0.5, 1.0, 0.2)
+CLOSE_WEIGHTS = (10.0, 0.5, 1.0, 0.2)
+
+#: What is tried in turn among obstacles, until a path keeps clear: (weights, straight stretch [m]).
+OBSTACLE_ATTEMPTS = ((CLOSE_WEIGHTS, SETTLE_M), (CLOSE_WEIGHTS, 0.0))
+
+
+@functools.lru_cache(maxsize=16)
+def refine_solver(
+    vehicle: VehicleTrailer, hitch_limit: float, planes: int = 0
+) -> tuple[ca.Function, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """IPOPT on the refinement NLP, the bounds of its variables and of its constraints that do not change
+    between calls.
+
+    Variables: the states Z_0..Z_N (x, y, yaw, hitch, steer; goal frame), the steer rates U_0..U_{N-1}
+    [rad per m of rear axle] and the length T [m of rear axle]. Parameters: the trailer-axle positions of
+    the searched path at the N + 1 nodes, the weights, and with ``planes`` > 0 the separating lines of
+    Z_1..Z_N (:class:`~hitchpark.control.clearance.ClearanceConstraints`: ``planes`` per body).
+    """
+    n = REFINE_STEPS
+    z = ca.SX.sym("z", 5, n + 1)
+    u = ca.SX.sym("u", 1, n)
+    length = ca.SX.sym("length")
+    ref = ca.SX.sym("ref", 2, n + 1)
+    weight = ca.SX.sym("weight", 4)
+    clearance = ClearanceConstraints(vehicle, planes) if planes else None
+    lines = ca.SX.sym("lines", 0 if clearance is None else clearance.n_params, n)
+    h = length / n
+
+    def rhs(state: ca.SX, rate: ca.SX) -> ca.SX:
+        return ca.vertcat(full_rhs(vehicle, state[:4], ca.vertcat(-1.0, state[4])), rate)
+
+    gaps, rows = [], []
+    cost: Any = 0
+    for k in range(n):
+        x, r = z[:, k], u[0, k]
+        k1 = rhs(x, r)
+        k2 = rhs(x + 0.5 * h * k1, r)
+        k3 = rhs(x + 0.5 * h * k2, r)
+        k4 = rhs(x + h * k3, r)
+        gaps.append(x + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4) - z[:, k + 1])
+        error = z[:2, k + 1] - ref[:, k + 1]
+        x1 = z[:, k + 1]
+        cost += h * (weight[0] * ca.sumsqr(error) + weight[1] * r**2 + weight[2] * x1[3] ** 2 + weight[3] * x1[4] ** 2)
+        if clearance is not None:
+            rows += clearance.rows(x1, lines[:, k])[0]
+    g = ca.vertcat(*gaps, *rows)
+    low_g = np.concatenate([np.zeros(5 * n), np.zeros(len(rows))])
+    high_g = np.concatenate([np.zeros(5 * n), np.full(len(rows), np.inf)])
+    w = ca.vertcat(ca.vec(z), ca.vec(u), length)
+    nlp: dict[str, Any] = {"x": w, "p": ca.vertcat(ca.vec(ref), weight, ca.vec(lines)), "f": cost, "g": g}
+    options: dict[str, Any] = {
+        "print_time": False,
+        "ipopt.print_level": 0,
+        "ipopt.sb": "yes",
+        "ipopt.max_iter": 200,
+        "ipopt.tol": 1e-8,
+        "ipopt.bound_relax_factor": 0.0,  # the steer, its rate and the hitch exactly within their limits
+    }
+    solver = ca.nlpsol("refine_end", "ipopt", nlp, options)
+    inf = np.inf
+    low_z = np.tile([-inf, -inf, -inf, -hitch_limit, -vehicle.max_steer], (n + 1, 1))
+    high_z = -low_z
+    low = np.concatenate([low_z.ravel(), np.full(n, -vehicle.max_steer_rate), [0.0]])
+    high = np.concatenate([high_z.ravel(), np.full(n, vehicle.max_steer_rate), [inf]])
+    return solver, low, high, low_g, high_g
+
+
+def refine_end(
+    vehicle: VehicleTrailer,
+    configs: np.ndarray,
+    steer: np.ndarray,
+    span: float,
+    goal: Pose,
+    line: tuple[float, float],
+    hitch_limit: float,
+    settle: float = 0.0,
+    free_steer: bool = False,
+    weights: tuple[float, float, float, float] = WEIGHTS,
+    clearance: ClearanceConstraints | None = None,
+    row_m: float = 0.1,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The reverse run ``configs`` (k, 4: world-frame trailer pose and hitch, k >= 2, evenly spaced in
+    rear-axle distance, ``span`` m of it in all) with front steers ``steer`` (k,), solved again to end on
+    the goal line ``line`` = (from, to) m ahead of ``goal`` (both 0: the goal itself), heading along it,
+    hitch and steer straight, the last ``settle`` m of it straight along the line; ``free_steer``: the
+    run starts at a standstill, where the steer may be set anew (else it starts at ``steer[0]``);
+    ``weights``: see :data:`WEIGHTS`; ``clearance``: the scene and clearance to keep (``use`` given), each
+    node kept on the free side of the separating lines of the first guess there. The rows returned are
+    at most ``row_m`` of rear axle apart (the NLP's intervals integrated in as many RK4 steps). Returns
+    the new rows after the first (k, 4), the steers of the first and of them (k + 1,) and the rear-axle
+    distance driven to each from the first row (k,) [m], or None when IPOPT finds no such path."""
+    n = REFINE_STEPS
+    planes = 0 if clearance is None else clearance.planes
+    solver, low, high, low_g, high_g = refine_solver(vehicle, hitch_limit, planes)
+    gx, gy, gyaw = to_goal_frame(goal, configs[:, 0], configs[:, 1], configs[:, 2])
+    gyaw = np.unwrap(gyaw)
+    gyaw = gyaw - 2 * math.pi * round(gyaw[-1] / (2 * math.pi))  # the branch that ends near 0
+    along = np.linspace(0.0, 1.0, len(configs))
+    nodes = np.linspace(0.0, 1.0, n + 1)
+    guess_z = np.column_stack([np.interp(nodes, along, v) for v in (gx, gy, gyaw, configs[:, 3], steer)])  # (n + 1, 5)
+    # The searched run moved onto the end it must reach over its last BLEND_M (a smoothstep): the first
+    # guess, the path the cost keeps near, and where the separating lines are taken.
+    target = np.array([float(np.clip(guess_z[-1, 0], min(line), max(line))) + settle, 0.0, 0.0, 0.0, 0.0])
+    left = (1.0 - nodes) * span
+    blend = np.clip(1.0 - left / min(BLEND_M, span), 0.0, 1.0)
+    guess_z += (blend * blend * (3.0 - 2.0 * blend))[:, None] * (target - guess_z[-1])
+    guess_u = np.diff(guess_z[:, 4]) / (span / n)
+    guess_u = np.clip(guess_u, -vehicle.max_steer_rate, vehicle.max_steer_rate)
+    guess = np.concatenate([guess_z.ravel(), guess_u, [span]])
+    low, high = low.copy(), high.copy()
+    first = guess_z[0]
+    low[:5], high[:5] = first, first  # starts where the searched run is, steer included
+    if free_steer:
+        low[4], high[4] = -vehicle.max_steer, vehicle.max_steer
+    end = slice(5 * n, 5 * n + 5)
+    low[end] = [min(line) + settle, 0.0, 0.0, 0.0, 0.0]
+    high[end] = [max(line) + settle, 0.0, 0.0, 0.0, 0.0]
+    low[-1], high[-1] = LENGTH_RANGE[0] * span, LENGTH_RANGE[1] * span
+    lines = np.zeros(0) if clearance is None else clearance.parameters(goal, guess_z, anchored=False)
+    params = np.concatenate([guess_z[:, :2].ravel(), weights, lines])
+    result = solver(x0=guess, p=params, lbx=low, ubx=high, lbg=low_g, ubg=high_g)
+    if not solver.stats()["success"]:
+        return None
+    w = np.asarray(result["x"]).ravel()
+    z = w[: 5 * (n + 1)].reshape(n + 1, 5)
+    if not np.all(np.isfinite(z)):
+        return None
+    h = float(w[-1]) / n
+    z, driven = _densified(vehicle, z, w[5 * (n + 1) : 5 * (n + 1) + n], h, row_m)
+    if settle > 0.0:  # the straight stretch, hitch straight: the trailer axle moves as the rear axle
+        m = max(1, round(settle / h))
+        straight = np.zeros((m, 5))
+        straight[:, 0] = z[-1, 0] - settle * np.arange(1, m + 1) / m
+        z = np.vstack([z, straight])
+        driven = np.concatenate([driven, driven[-1] + settle * np.arange(1, m + 1) / m])
+    x, y, yaw = from_goal_frame(goal, z[1:, 0], z[1:, 1], z[1:, 2])
+    yaw = yaw + (configs[0, 2] - from_goal_frame(goal, 0.0, 0.0, z[0, 2])[2])  # on the run's own branch
+    return np.column_stack([x, y, yaw, z[1:, 3]]), z[:, 4], driven
+
+
+def _densified(
+    vehicle: VehicleTrailer, z: np.ndarray, u: np.ndarray, h: float, row_m: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes ``z`` (n + 1, 5) with rows between them, each interval (steer rate ``u``, length ``h``)
+    integrated in RK4 steps of at most ``row_m``; and the rear-axle distance to each row after the first."""
+    sub = max(1, math.ceil(h / row_m - 1e-9))
+    step = h / sub
+
+    def rhs(x: np.ndarray) -> np.ndarray:
+        return np.vstack([full_rhs(vehicle, x[:4], np.stack([-np.ones_like(u), x[4]])), u])
+
+    x = z[:-1].T  # (5, n): every interval at once
+    inner = []
+    for _ in range(sub - 1):
+        k1 = rhs(x)
+        k2 = rhs(x + 0.5 * step * k1)
+        k3 = rhs(x + 0.5 * step * k2)
+        k4 = rhs(x + step * k3)
+        x = x + step / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        inner.append(x.T)
+    rows = np.stack([*inner, z[1:]], axis=1).reshape(-1, 5)  # per interval: its inner rows, then its end
+    return np.vstack([z[:1], rows]), step * np.arange(1, len(rows) + 1)
+
+
+@functools.lru_cache(maxsize=16)
+def _clearance(vehicle: VehicleTrailer) -> ClearanceConstraints:
+    return ClearanceConstraints(vehicle, REFINE_PLANES)
+
+
+def refine_plan(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: PlannerSettings, found: Plan) -> Plan:
+    """``found`` with the last ``settings.refine_m`` of its last reverse run (if the path ends in reverse)
+    replaced by :func:`refine_end`'s, when IPOPT solves it and, among obstacles, the whole path still keeps
+    ``min_clearance_m`` by the exact swept clearance; ``found`` itself otherwise. The time spent is added
+    to ``planning_s`` either way."""
+    began = time.perf_counter()
+    path = found.path
+    direction, s = path["direction"], path["s"]
+    if settings.refine_m <= 0.0 or len(s) < 3 or direction[-1] > 0:
+        return found
+    forward = np.flatnonzero(direction > 0)
+    segment_start = int(forward[-1]) if len(forward) else 0  # the row the last reverse run starts from
+    first = max(segment_start, int(np.searchsorted(s, s[-1] - settings.refine_m)))
+    first = min(first, len(s) - 3)
+    configs = np.column_stack([path[k] for k in PATH_COLUMNS[:4]])
+    span = float(path["t"][-1] - path["t"][first])
+    attempts = ((WEIGHTS, SETTLE_M),) if scene.is_empty else OBSTACLE_ATTEMPTS
+    clearance = None
+    if not scene.is_empty:
+        clearance = _clearance(vehicle)
+        clearance.use(scene, settings.min_clearance_m + CHECK_STEP_M / 2)
+    why = "IPOPT found no path ending at the goal"
+    for weights, settle in attempts:
+        refined = refine_end(
+            vehicle,
+            configs[first:],
+            path["front_steer"][first:],
+            span,
+            goal,
+            (settings.goal_line_from_m, settings.goal_line_m),
+            vehicle.max_hitch - settings.hitch_margin,
+            settle,
+            free_steer=first == segment_start,
+            weights=weights,
+            clearance=clearance,
+            row_m=settings.sample_step_m,
+        )
+        if refined is None:
+            continue
+        rows, steer, driven = refined
+        new = np.vstack([configs[: first + 1], rows])
+        kept, _ = swept_clearance(vehicle, scene, new[first:], max_step_m=CHECK_STEP_M)
+        if kept >= settings.min_clearance_m - CHECK_STEP_M / 2:
+            break
+        why = "the refined end comes too close to the scene"
+    else:
+        spent = found.planning_s + time.perf_counter() - began
+        return replace(found, detail=f"{found.detail}; its end not refined ({why})", planning_s=spent)
+    # The steer at the path's start is the refined one; after a change of direction, the new run's steer
+    # is set at the standstill, between the row that ends the last run and the next.
+    rows_steer = np.concatenate(
+        [path["front_steer"][:first], steer[:1] if first == 0 else path["front_steer"][first : first + 1], steer[1:]]
+    )
+    t = np.concatenate([path["t"][: first + 1], path["t"][first] + driven])
+    d = np.concatenate([direction[: first + 1], np.full(len(rows), -1.0)])
+    moved = np.hypot(np.diff(new[:, 0]), np.diff(new[:, 1]))
+    columns = {
+        "x_trailer": new[:, 0],
+        "y_trailer": new[:, 1],
+        "yaw_trailer": new[:, 2],
+        "hitch": new[:, 3],
+        "front_steer": rows_steer,
+        "direction": d,
+        "s": np.concatenate([[0.0], np.cumsum(moved)]),
+        "t": t,
+    }
+    return replace(
+        found,
+        path=columns,
+        length_m=float(columns["s"][-1]),
+        planning_s=found.planning_s + time.perf_counter() - began,
+        detail=found.detail + "; its end refined to end at the goal",
+    )
