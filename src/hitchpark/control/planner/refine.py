@@ -62,15 +62,23 @@ CHECK_STEP_M = 0.01
 BLEND_M = 3.0
 
 #: Cost weights, per m of path: of the squared trailer-axle distance from the searched path [1/m^2], of
-#: the squared steer rate [(rad/m)^-2], hitch and steer [rad^-2]. In open space the path may move off the
-#: searched one to settle; among obstacles it stays near it, which kept clear (measured at the campsite:
-#: the looser path cut past the trees, where the NMPC's separating lines, taken from its warm start,
-#: then cut through that warm start by up to 0.43 m, and the SQP route failed on such problems).
+#: the squared steer rate [(rad/m)^-2], hitch and steer [rad^-2]. In open space the path may move well
+#: off the searched one to settle; among obstacles less (measured at the campsite: the open-space
+#: weights cut past its trees, where the NMPC's separating lines, taken from its warm start to leave room
+#: where the car is, then cut through that warm start by up to 0.43 m, problems the SQP route failed
+#: on); CLOSE_WEIGHTS keep near it (they leave the bay's reference nearly as unsettled as the search's:
+#: 30.2 m and 3 switches over 50 starts, against 22.7 m and 1).
 WEIGHTS = (0.1, 0.5, 1.0, 0.2)
+OBSTACLE_WEIGHTS = (1.0, 0.5, 1.0, 0.2)
 CLOSE_WEIGHTS = (10.0, 0.5, 1.0, 0.2)
 
-#: What is tried in turn among obstacles, until a path keeps clear: (weights, straight stretch [m]).
-OBSTACLE_ATTEMPTS = ((CLOSE_WEIGHTS, SETTLE_M), (CLOSE_WEIGHTS, 0.0))
+#: Among obstacles, the refined path is first asked to keep as much clearance as the searched run kept, up
+#: to this much more than ``min_clearance_m`` [m], then ``min_clearance_m`` (OBSTACLE_ATTEMPTS).
+WIDE_M = 0.15
+
+#: What is tried in turn among obstacles at ``min_clearance_m``, until a path keeps clear: (weights,
+#: straight stretch [m]).
+OBSTACLE_ATTEMPTS = ((OBSTACLE_WEIGHTS, SETTLE_M), (CLOSE_WEIGHTS, SETTLE_M), (CLOSE_WEIGHTS, 0.0))
 
 
 @functools.lru_cache(maxsize=16)
@@ -252,13 +260,20 @@ def refine_plan(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Pla
     first = min(first, len(s) - 3)
     configs = np.column_stack([path[k] for k in PATH_COLUMNS[:4]])
     span = float(path["t"][-1] - path["t"][first])
-    attempts = ((WEIGHTS, SETTLE_M),) if scene.is_empty else OBSTACLE_ATTEMPTS
+    attempts: list[tuple[tuple[float, float, float, float], float, float]] = [(WEIGHTS, SETTLE_M, 0.0)]
     clearance = None
     if not scene.is_empty:
         clearance = _clearance(vehicle)
-        clearance.use(scene, settings.min_clearance_m + CHECK_STEP_M / 2)
+        # First as clear as the searched run was (up to WIDE_M more than asked), then as asked.
+        searched, _ = swept_clearance(vehicle, scene, configs[first:], max_step_m=CHECK_STEP_M)
+        wide = min(searched - CHECK_STEP_M, settings.min_clearance_m + WIDE_M)
+        attempts = [(w, settle, settings.min_clearance_m) for w, settle in OBSTACLE_ATTEMPTS]
+        if wide > settings.min_clearance_m:
+            attempts.insert(0, (OBSTACLE_WEIGHTS, SETTLE_M, wide))
     why = "IPOPT found no path ending at the goal"
-    for weights, settle in attempts:
+    for weights, settle, keep in attempts:
+        if clearance is not None:
+            clearance.use(scene, keep + CHECK_STEP_M / 2)
         refined = refine_end(
             vehicle,
             configs[first:],
