@@ -11,9 +11,11 @@ at 1 m/s) and ``max_steer``, its hitch within ``max_hitch - hitch_margin``.
 
 A nonlinear program by direct multiple shooting (one RK4 step per interval, a fixed number of intervals,
 their length free within limits: the path may grow or shrink a little), solved by IPOPT from the
-search's own path. The cost keeps the trailer axle near the searched path (which passed the
-collision check) and the steer rate low. The caller checks the result's clearance; when IPOPT fails the
-searched path stays.
+search's own run moved onto the goal. The cost keeps the trailer axle near that run (which passed the
+collision check) and the steer rate, the hitch and the steer low; among obstacles every node keeps the
+scene's separating lines (:mod:`~hitchpark.control.clearance`), and :func:`refine_plan` checks the
+result's exact swept clearance. When IPOPT fails, or the result does not keep clear, the searched path
+stays. (A run that starts standing still may start with another steer: it is set at the standstill.)
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import casadi as ca
 import numpy as np
 
 from ...model.collision import swept_clearance
+from ...model.integrate import rk4
 from ...model.kinematics import full_rhs
 from ...model.scene import Scene
 from ...model.state import Pose, from_goal_frame, to_goal_frame
@@ -37,7 +40,7 @@ from .settings import PATH_COLUMNS, Plan, PlannerSettings
 
 __all__ = ["REFINE_PLANES", "REFINE_STEPS", "refine_end", "refine_plan", "refine_solver"]
 
-#: Intervals of the refined part (its length / REFINE_STEPS each: 0.125 m of rear axle over 10 m).
+#: Intervals of the refined part (its length / REFINE_STEPS each: 0.25 m of rear axle over 20 m).
 REFINE_STEPS = 80
 
 #: The refined part may be this much shorter or longer than the part it replaces (a ratio).
@@ -110,11 +113,7 @@ def refine_solver(
     cost: Any = 0
     for k in range(n):
         x, r = z[:, k], u[0, k]
-        k1 = rhs(x, r)
-        k2 = rhs(x + 0.5 * h * k1, r)
-        k3 = rhs(x + 0.5 * h * k2, r)
-        k4 = rhs(x + h * k3, r)
-        gaps.append(x + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4) - z[:, k + 1])
+        gaps.append(rk4(functools.partial(rhs, rate=r), x, h, substeps=1) - z[:, k + 1])
         error = z[:2, k + 1] - ref[:, k + 1]
         x1 = z[:, k + 1]
         cost += h * (weight[0] * ca.sumsqr(error) + weight[1] * r**2 + weight[2] * x1[3] ** 2 + weight[3] * x1[4] ** 2)
@@ -205,7 +204,7 @@ def refine_end(
     h = float(w[-1]) / n
     z, driven = _densified(vehicle, z, w[5 * (n + 1) : 5 * (n + 1) + n], h, row_m)
     if settle > 0.0:  # the straight stretch, hitch straight: the trailer axle moves as the rear axle
-        m = max(1, round(settle / h))
+        m = max(1, math.ceil(settle / row_m - 1e-9))
         straight = np.zeros((m, 5))
         straight[:, 0] = z[-1, 0] - settle * np.arange(1, m + 1) / m
         z = np.vstack([z, straight])
@@ -229,11 +228,7 @@ def _densified(
     x = z[:-1].T  # (5, n): every interval at once
     inner = []
     for _ in range(sub - 1):
-        k1 = rhs(x)
-        k2 = rhs(x + 0.5 * step * k1)
-        k3 = rhs(x + 0.5 * step * k2)
-        k4 = rhs(x + step * k3)
-        x = x + step / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        x = rk4(rhs, x, step, substeps=1)
         inner.append(x.T)
     rows = np.stack([*inner, z[1:]], axis=1).reshape(-1, 5)  # per interval: its inner rows, then its end
     return np.vstack([z[:1], rows]), step * np.arange(1, len(rows) + 1)
