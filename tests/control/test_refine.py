@@ -109,3 +109,15 @@ def test_a_goal_line_end_lands_on_the_line():
     assert rows[straight, 0][0] == pytest.approx(rows[-1, 0] + 1.0, abs=0.2)
     assert len(steer) == len(rows) + 1 and len(driven) == len(rows)
     assert np.all(np.diff(driven) > 0.0)
+
+
+def test_an_end_that_cannot_be_refined_keeps_the_searched_path():
+    """0.88 m off the goal line 7 m out: the searched run lands in the tolerance with the steer at 43 deg,
+    and no run from there settles exactly at the goal within the limits (IPOPT: infeasible). The plan is
+    the searched one, and says so."""
+    start = State(7.058, -0.879, 0.0143, 0.056)
+    refined = plan(VEHICLE, start, Pose(), Scene(), SETTINGS)
+    searched = plan(VEHICLE, start, Pose(), Scene(), replace(SETTINGS, refine_m=0.0))
+    assert refined.found and "its end not refined (IPOPT found no path ending at the goal)" in refined.detail
+    for name, column in searched.path.items():
+        np.testing.assert_array_equal(refined.path[name], column)

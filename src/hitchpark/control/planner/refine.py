@@ -243,7 +243,7 @@ def refine_plan(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Pla
     """``found`` with the last ``settings.refine_m`` of its last reverse run (if the path ends in reverse)
     replaced by :func:`refine_end`'s, when IPOPT solves it and, among obstacles, the whole path still keeps
     ``min_clearance_m`` by the exact swept clearance; ``found`` itself otherwise. The time spent is added
-    to ``planning_s`` either way."""
+    to ``planning_s`` either way; among obstacles a further try starts only within ``time_limit_s``."""
     began = time.perf_counter()
     path = found.path
     direction, s = path["direction"], path["s"]
@@ -266,7 +266,11 @@ def refine_plan(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Pla
         if wide > settings.min_clearance_m:
             attempts.insert(0, (OBSTACLE_WEIGHTS, SETTLE_M, wide))
     why = "IPOPT found no path ending at the goal"
-    for weights, settle, keep in attempts:
+    chosen: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+    for i, (weights, settle, keep) in enumerate(attempts):
+        if i and found.planning_s + time.perf_counter() - began > settings.time_limit_s:
+            why += "; no time left for another try"
+            break
         if clearance is not None:
             clearance.use(scene, keep + CHECK_STEP_M / 2)
         refined = refine_end(
@@ -285,15 +289,16 @@ def refine_plan(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Pla
         )
         if refined is None:
             continue
-        rows, steer, driven = refined
-        new = np.vstack([configs[: first + 1], rows])
+        new = np.vstack([configs[: first + 1], refined[0]])
         kept, _ = swept_clearance(vehicle, scene, new[first:], max_step_m=CHECK_STEP_M)
         if kept >= settings.min_clearance_m - CHECK_STEP_M / 2:
+            chosen = (new, *refined)
             break
         why = "the refined end comes too close to the scene"
-    else:
+    if chosen is None:
         spent = found.planning_s + time.perf_counter() - began
         return replace(found, detail=f"{found.detail}; its end not refined ({why})", planning_s=spent)
+    new, rows, steer, driven = chosen
     # The steer at the path's start is the refined one; after a change of direction, the new run's steer
     # is set at the standstill, between the row that ends the last run and the next.
     rows_steer = np.concatenate(
