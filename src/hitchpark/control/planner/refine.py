@@ -203,6 +203,8 @@ def refine_end(
         return None
     h = float(w[-1]) / n
     z, driven = _densified(vehicle, z, w[5 * (n + 1) : 5 * (n + 1) + n], h, row_m)
+    if np.any(np.abs(z[:, 3]) > hitch_limit):  # the nodes keep it; a row between two may not
+        return None
     if settle > 0.0:  # the straight stretch, hitch straight: the trailer axle moves as the rear axle
         m = max(1, math.ceil(settle / row_m - 1e-9))
         straight = np.zeros((m, 5))
