@@ -94,6 +94,8 @@ def shown(value: Any) -> str:
 
 def check_number(name: str, value: Any) -> float:
     """A finite real number (NumPy scalars too, booleans and strings not)."""
+    if type(value) is float and math.isfinite(value):  # the common case, checked first
+        return value
     if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
         raise InputError(f"{name} must be a number, got {shown(value)}")
     value = float(value)

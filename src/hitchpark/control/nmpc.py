@@ -21,7 +21,7 @@ from ..model.inverse import front_steer_from_virtual, rear_speed_from_trailer_sp
 from ..model.kinematics import trailer_speed_from_rear_speed
 from ..model.plant import Command, Measurement
 from ..model.scene import Scene
-from ..model.state import Pose, State, check_goal, to_goal_frame
+from ..model.state import Pose, State, check_goal, clamp, to_goal_frame
 from ..model.vehicle import VehicleTrailer
 from .clearance import ClearanceConstraints
 from .full_ocp import SPEED, STEER, FullParkingProblem
@@ -68,11 +68,11 @@ class TrailerNMPC(RecedingHorizon):
         if not ok:
             return self._stop(status, cost, solve_ms, states, inputs)
         v_t, d_t = inputs[0]
-        d_t = float(np.clip(d_t, u_min[1], u_max[1]))  # solver tolerance must not leak past Eq. (57)
-        v_t = float(np.clip(v_t, u_min[0], u_max[0]))
+        d_t = clamp(d_t, u_min[1], u_max[1])  # solver tolerance must not leak past Eq. (57)
+        v_t = clamp(v_t, u_min[0], u_max[0])
         front = float(front_steer_from_virtual(self.vehicle, hitch, d_t))  # Eq. (45)
         rear = float(rear_speed_from_trailer_speed(self.vehicle, hitch, d_t, v_t))  # Eq. (44)
-        front = float(np.clip(front, -self.vehicle.max_steer, self.vehicle.max_steer))
+        front = clamp(front, -self.vehicle.max_steer, self.vehicle.max_steer)
         if not (math.isfinite(front) and math.isfinite(rear)):
             return self._stop("non-finite vehicle command", cost, solve_ms, states, inputs)
         stop = abs(v_t) < self.settings.stop_speed
@@ -279,7 +279,7 @@ class FullNMPC(RecedingHorizon):
         if not step.ok:
             return None
         limit = self.vehicle.max_steer  # the solver's tolerance must not leak past the limit
-        return float(np.clip(step.predicted_states[0, STEER], -limit, limit))
+        return clamp(step.predicted_states[0, STEER], -limit, limit)
 
     def _plan(self, x0: np.ndarray, free_steer: bool = False) -> NMPCStep:
         assert isinstance(self.problem, FullParkingProblem)
@@ -290,8 +290,8 @@ class FullNMPC(RecedingHorizon):
         if not ok:
             return self._stop(status, cost, solve_ms, states, inputs)
         first = x0 + self.settings.dt * np.concatenate([np.zeros(4), inputs[0]])  # the rates held for one sample
-        steer = float(np.clip(first[STEER], -v.max_steer, v.max_steer))
-        speed = float(np.clip(first[SPEED], self.settings.speed_min, self.settings.speed_max))
+        steer = clamp(first[STEER], -v.max_steer, v.max_steer)
+        speed = clamp(first[SPEED], self.settings.speed_min, self.settings.speed_max)
         if not (math.isfinite(steer) and math.isfinite(speed)):
             return self._stop("non-finite vehicle command", cost, solve_ms, states, inputs)
         stop = abs(speed) < self.settings.stop_speed and abs(x0[SPEED]) < self.settings.stop_speed

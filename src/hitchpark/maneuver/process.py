@@ -31,7 +31,7 @@ from ..model.inverse import virtual_steer_from_front
 from ..model.kinematics import trailer_speed_from_rear_speed
 from ..model.plant import Command, Measurement, Plant, PlantSettings
 from ..model.scene import Scene
-from ..model.state import Pose, State, check_goal, check_state
+from ..model.state import Pose, State, check_goal, check_state, clamp
 from ..model.vehicle import VehicleTrailer, check_vehicle
 from ..sim import STATE_COLUMNS, Trajectory, state_columns
 from .planned import PlannedProcess
@@ -102,16 +102,14 @@ class _Loop:
         steer_step, speed_step = self.steer_rate * self.plant.dt, self.accel * self.plant.dt
         last = self.last
         return Command(
-            float(np.clip(command.rear_speed, last.rear_speed - speed_step, last.rear_speed + speed_step)),
-            float(np.clip(command.front_steer, last.front_steer - steer_step, last.front_steer + steer_step)),
+            clamp(command.rear_speed, last.rear_speed - speed_step, last.rear_speed + speed_step),
+            clamp(command.front_steer, last.front_steer - steer_step, last.front_steer + steer_step),
         )
 
     def step(self, stage: int, measurement: Measurement, command: Command, why: NMPCStep | None = None) -> bool:
         """Apply one command and record the row; False (and the outcome) on a jackknife."""
         vehicle = self.plant.vehicle
-        command = Command(
-            command.rear_speed, float(np.clip(command.front_steer, -vehicle.max_steer, vehicle.max_steer))
-        )
+        command = Command(command.rear_speed, clamp(command.front_steer, -vehicle.max_steer, vehicle.max_steer))
         before = self.plant.state.as_array()
         if self.clock is not None:
             self.clock.tick()
@@ -161,12 +159,12 @@ class _Loop:
     def settle(self, stage: int, target: float) -> bool:
         """Standing still, turn the wheels to ``target`` within the steer-rate limit; False on timeout."""
         limit = self.plant.vehicle.max_steer
-        target = float(np.clip(target, -limit, limit))
+        target = clamp(target, -limit, limit)
         rate = self.steer_rate * self.plant.dt
         while abs(self.plant.front_steer - target) > SETTLE_TOLERANCE or self.last.front_steer != target:
             if self.out_of_time():
                 return False
-            steer = self.last.front_steer + float(np.clip(target - self.last.front_steer, -rate, rate))
+            steer = self.last.front_steer + clamp(target - self.last.front_steer, -rate, rate)
             if not self.step(stage, self.plant.sense(), Command(0.0, steer)):
                 return False
         return True

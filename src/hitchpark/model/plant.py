@@ -37,7 +37,7 @@ from ..io import read_toml
 from ..native import native
 from .integrate import PLANT_SUBSTEPS, plant_function, rk4_timed
 from .kinematics import full_rhs
-from .state import State, check_state
+from .state import State, check_state, clamp
 from .vehicle import VehicleTrailer, vehicle_from_dict
 
 __all__ = ["IDEAL", "PLANT_KINDS", "Command", "Measurement", "Plant", "PlantSettings", "case_seed", "load_plant"]
@@ -282,7 +282,7 @@ class Plant:
         self._queue.append(command)
         acted = self._queue[0]
         if self.settings.kind == "ideal":
-            steer = float(np.clip(acted.front_steer, -self.vehicle.max_steer, self.vehicle.max_steer))
+            steer = clamp(acted.front_steer, -self.vehicle.max_steer, self.vehicle.max_steer)
             start = Command(acted.rear_speed, steer)
             x_next = np.asarray(self._step(self._x, [start.rear_speed, steer], self.dt))
             end = start

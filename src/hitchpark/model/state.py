@@ -24,6 +24,7 @@ __all__ = [
     "check_goal",
     "check_pose",
     "check_state",
+    "clamp",
     "from_goal_frame",
     "to_goal_frame",
     "wrap_angle",
@@ -31,9 +32,17 @@ __all__ = [
 
 
 def wrap_angle(a: Any) -> Any:
-    """Angle(s) wrapped to [-pi, pi)."""
+    """Angle(s) wrapped to [-pi, pi) (a float for a Python float: the control loop's scalars skip NumPy)."""
+    if type(a) is float:
+        w = (a + math.pi) % (2.0 * math.pi) - math.pi
+        return w - 2.0 * math.pi if w >= math.pi else w
     r = (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
     return np.where(r >= np.pi, r - 2 * np.pi, r)  # the modulo can round up to 2 pi
+
+
+def clamp(value: float, low: float, high: float) -> float:
+    """``value`` limited to [low, high], as a float (``np.clip`` for one number, without NumPy's cost)."""
+    return float(min(max(value, low), high))
 
 
 def check_pose(what: str, x: Any, y: Any, yaw: Any) -> None:
@@ -137,6 +146,9 @@ def check_goal(goal: Any) -> Pose:
 def to_goal_frame(goal: Pose, x: Any, y: Any, yaw: Any) -> tuple[Any, Any, Any]:
     """World pose(s) -> parking frame of ``goal`` (Fig. 5): origin at the goal, X along its heading."""
     c, s = math.cos(goal.yaw), math.sin(goal.yaw)
+    if type(x) is float and type(y) is float and type(yaw) is float:  # one pose: floats, no NumPy
+        ex, ey = x - goal.x, y - goal.y
+        return c * ex + s * ey, -s * ex + c * ey, wrap_angle(yaw - goal.yaw)
     dx, dy = np.asarray(x) - goal.x, np.asarray(y) - goal.y
     return c * dx + s * dy, -s * dx + c * dy, wrap_angle(np.asarray(yaw) - goal.yaw)
 
