@@ -87,6 +87,7 @@ class PathReference:
         path = path + (weight * weight * (3.0 - 2.0 * weight))[:, None] * gap  # smoothstep
         self.points = np.vstack([path, line[1:]])
         self.s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(self.points[:, :2], axis=0).T))])
+        self._columns = [np.ascontiguousarray(self.points[:, i]) for i in range(5)]  # for np.interp each step
         self.length = float(self.s[-1])
         self.speed, self.brake, self.dt, self.horizon = float(speed), 0.5 * float(max_accel), float(dt), int(horizon)
         self.progress = 0.0  # arc length of the closest point so far
@@ -102,15 +103,16 @@ class PathReference:
 
     def locate(self, x: float, y: float) -> float:
         """Move the closest point forward (never back) within :data:`SEARCH_AHEAD_M`; its arc length."""
-        window = np.flatnonzero((self.s >= self.progress - 1e-9) & (self.s <= self.progress + SEARCH_AHEAD_M))
-        d = np.hypot(self.points[window, 0] - x, self.points[window, 1] - y)
+        first = int(np.searchsorted(self.s, self.progress - 1e-9, side="left"))  # s never decreases
+        last = int(np.searchsorted(self.s, self.progress + SEARCH_AHEAD_M, side="right"))
+        d = np.hypot(self._columns[0][first:last] - x, self._columns[1][first:last] - y)
         best = int(np.argmin(d))
-        self.progress, self.deviation = float(self.s[window[best]]), float(d[best])
+        self.progress, self.deviation = float(self.s[first + best]), float(d[best])
         return self.progress
 
     def branch(self, yaw: float) -> float:
         """``yaw`` moved by whole turns to the branch of the reference at the closest point."""
-        here = float(np.interp(self.progress, self.s, self.points[:, 2]))
+        here = float(np.interp(self.progress, self.s, self._columns[2]))
         return yaw + 2.0 * math.pi * round((here - yaw) / (2.0 * math.pi))
 
     def window(self, x0: np.ndarray) -> np.ndarray:
@@ -125,8 +127,8 @@ class PathReference:
             s = min(s + min(self.speed, math.sqrt(2.0 * self.brake * max(self.length - s, 0.0))) * self.dt, self.length)
             ahead[k] = s
         out = np.empty((self.horizon, 6))
-        for i in range(5):
-            out[:, i] = np.interp(ahead, self.s, self.points[:, i])
+        for i, column in enumerate(self._columns):
+            out[:, i] = np.interp(ahead, self.s, column)
         out[:, 5] = -self._speed(ahead)  # reverse
         return out
 

@@ -120,12 +120,18 @@ class MultipleShooting(Transcription):
         self._x_idx = np.array([[k * stride + i for i in range(nx)] for k in range(N + 1)])
         self._u_idx = np.array([[k * stride + nx + i for i in range(nu)] for k in range(N)])
         self._n = stride * N + nx
+        self._bounds: dict[
+            tuple[tuple[float, ...], tuple[float, ...]], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+        ] = {}
         x, u = ca.SX.sym("x", nx), ca.SX.sym("u", nu)
         self._step = ca.Function("step", [x, u], [problem.discrete_dynamics(x, u)])  # for cold-start rollouts
 
     def bounds(
         self, u_min: np.ndarray, u_max: np.ndarray, free_initial: dict[int, tuple[float, float]] | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        key = (tuple(np.ravel(u_min)), tuple(np.ravel(u_max)))
+        if not free_initial and key in self._bounds:  # the same every step: built once, read-only
+            return self._bounds[key]
         lb = np.full(self._n, -np.inf)
         ub = np.full(self._n, np.inf)
         lb[self._u_idx] = u_min
@@ -140,7 +146,10 @@ class MultipleShooting(Transcription):
             for i, (lo, hi) in free_initial.items():
                 lbg[i], ubg[i] = -np.inf, np.inf  # X_0[i] - p[i] unconstrained ...
                 lb[self._x_idx[0, i]], ub[self._x_idx[0, i]] = lo, hi  # ... X_0[i] within its bounds
-        return lb, ub, lbg, ubg
+            return lb, ub, lbg, ubg
+        lb.flags.writeable = ub.flags.writeable = False
+        self._bounds[key] = (lb, ub, lbg, ubg)
+        return self._bounds[key]
 
     def guess(self, x0: np.ndarray, inputs: np.ndarray, states: np.ndarray | None = None) -> np.ndarray:
         if states is None:

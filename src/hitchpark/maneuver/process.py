@@ -110,7 +110,7 @@ class _Loop:
         """Apply one command and record the row; False (and the outcome) on a jackknife."""
         vehicle = self.plant.vehicle
         command = Command(command.rear_speed, clamp(command.front_steer, -vehicle.max_steer, vehicle.max_steer))
-        before = self.plant.state.as_array()
+        before = self.plant.configuration
         if self.clock is not None:
             self.clock.tick()
         acting = self.plant.apply(command)
@@ -173,7 +173,7 @@ class _Loop:
         """The final state and a stop, steer held."""
         m = self.plant.sense()
         vehicle = self.plant.vehicle
-        before = self.plant.state.as_array()
+        before = self.plant.configuration
         self.states.append(before)
         row = self.rows
         for name, value in (

@@ -16,6 +16,7 @@ inputs ``TRAILER_INPUT``: ``(trailer_speed, virtual_steer)`` = (V_T, delta_T).
 
 from __future__ import annotations
 
+import math
 from types import SimpleNamespace
 from typing import Any
 
@@ -45,13 +46,17 @@ TRAILER_STATE = ("x_trailer", "y_trailer", "yaw_trailer")
 TRAILER_INPUT = ("trailer_speed", "virtual_steer")
 
 _NUMPY = SimpleNamespace(sin=np.sin, cos=np.cos, tan=np.tan, atan=np.arctan, atan2=np.arctan2, stack=np.stack)
+_MATH = SimpleNamespace(sin=math.sin, cos=math.cos, tan=math.tan, atan=math.atan, atan2=math.atan2, stack=None)
 _CASADI = SimpleNamespace(
     sin=ca.sin, cos=ca.cos, tan=ca.tan, atan=ca.atan, atan2=ca.atan2, stack=lambda xs: ca.vertcat(*xs)
 )
 
 
 def ops(*values: Any) -> SimpleNamespace:
-    """The math namespace for ``values``: CasADi's if any is symbolic, else NumPy's."""
+    """The math namespace for ``values``: CasADi's if any is symbolic, else NumPy's (Python's ``math`` for
+    floats alone: the control loop's scalars)."""
+    if all(type(v) is float and math.isfinite(v) for v in values):  # (math raises where NumPy gives NaN)
+        return _MATH
     for v in values:
         if isinstance(v, ca.SX | ca.MX | ca.DM):
             return _CASADI
@@ -59,7 +64,7 @@ def ops(*values: Any) -> SimpleNamespace:
 
 
 def _stack(m: SimpleNamespace, parts: list[Any]) -> Any:
-    if m is _NUMPY:
+    if m is not _CASADI:
         return np.stack(np.broadcast_arrays(*parts))
     return m.stack(parts)
 

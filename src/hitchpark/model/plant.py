@@ -246,6 +246,11 @@ class Plant:
         """The true configuration."""
         return State.from_array(self._x)
 
+    @property
+    def configuration(self) -> np.ndarray:
+        """The true configuration as an array (x, y, yaw, hitch), a copy: what the loop records each step."""
+        return self._x.copy()
+
     def sense(self) -> Measurement:
         """The sensors' reading now: the configuration with noise and bias, the actuators' actual state."""
         noisy = self._x + self._bias + self._noise * self._rng.standard_normal(4)  # 4 draws always: one stream
