@@ -219,6 +219,9 @@ class PathPursuit:
     #: How far ahead along the reference [samples] the nearest point is searched at each step.
     WINDOW = 12
 
+    #: Samples integrated between two questions to ``ended`` (see :meth:`run`).
+    CHECK_EVERY = 8
+
     def __init__(self, vehicle: VehicleTrailer, step: float, runs: int):
         vehicle.require_hitch_offset()
         self.step = step
@@ -237,8 +240,10 @@ class PathPursuit:
 
         ``references`` (runs, m, 2): points ``step`` apart, the path of each run (padded with its last
         point); ``lookaheads`` (runs,) [m]. A run is integrated until ``ended(states, deviation)`` says of
-        its current state and its distance from the reference that it cannot still arrive (or has); all
-        stop when every run has, or at the end of the references.
+        its state and its distance from the reference that it cannot still arrive (or has); all stop when
+        every run has, or at the end of the references. ``ended`` judges each row alone (states (n, 5),
+        deviations (n,)): it is asked about :data:`CHECK_EVERY` samples of every run at once, and a run
+        that ended is then held at the sample where it did, as if it had been stopped there.
         """
         runs, m = references.shape[0], references.shape[1]
         ahead = np.maximum(1, np.round(np.asarray(lookaheads) / self.step)).astype(np.int64)
@@ -247,19 +252,53 @@ class PathPursuit:
         nearest = np.zeros(runs, dtype=np.int64)
         window = np.arange(self.WINDOW)
         limits = np.full((1, runs), limit)
-        states = [x.T.copy()]
-        done = np.zeros(runs, dtype=bool)
-        for _ in range(m + self.WINDOW):
+        states = [x.T.copy()]  # sample i of every run
+        deviation: list[np.ndarray] = []  # its distance from the reference, once its nearest point is known
+        end = np.full(runs, -1)  # the sample where each run ended (-1: not yet)
+        checked = 0  # samples asked about so far
+        for i in range(m + self.WINDOW):
             candidates = np.minimum(nearest[:, None] + window[None, :], m - 1)
             gap = references[rows[:, None], candidates] - x[:2].T[:, None, :]
             distance = np.hypot(gap[..., 0], gap[..., 1])
             best = np.argmin(distance, axis=1)
             nearest = candidates[rows, best]
-            done |= ended(x.T, distance[rows, best])
-            if done.all():
-                break
+            deviation.append(distance[rows, best])
+            if i + 1 - checked == self.CHECK_EVERY:
+                checked = self._ended(states, deviation, checked, end, ended)
+                if (end >= 0).all():
+                    break
             targets = references[rows, np.minimum(nearest + ahead, m - 1)].T
             x = np.asarray(self._function(x, targets, limits))
-            x[:, done] = states[-1].T[:, done]  # a run that ended stays where it ended
+            held = end >= 0
+            x[:, held] = states[-1].T[:, held]  # a run that ended stays where it ended
             states.append(x.T.copy())
-        return np.stack(states, axis=1)
+        else:
+            self._ended(states, deviation, checked, end, ended)
+        path = np.stack(states, axis=1)  # (runs, samples, 5)
+        if (end >= 0).all():
+            path = path[:, : end.max() + 1]
+        for r in np.flatnonzero(end >= 0):
+            path[r, end[r] + 1 :] = path[r, end[r]]
+        return path
+
+    @staticmethod
+    def _ended(
+        states: list[np.ndarray],
+        deviation: list[np.ndarray],
+        checked: int,
+        end: np.ndarray,
+        ended: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    ) -> int:
+        """Ask ``ended`` about the samples from ``checked`` on that have a deviation; note in ``end`` where each
+        run first ended. The samples asked about so far."""
+        upto = len(deviation)
+        if upto <= checked:
+            return checked
+        block = np.stack(states[checked:upto], axis=1)  # (runs, k, 5)
+        runs, k = block.shape[0], block.shape[1]
+        flags = np.asarray(ended(block.reshape(runs * k, 5), np.stack(deviation[checked:upto], axis=1).ravel()))
+        flags = flags.reshape(runs, k)
+        first = np.where(flags.any(axis=1), checked + np.argmax(flags, axis=1), -1)
+        new = (end < 0) & (first >= 0)
+        end[new] = first[new]
+        return upto
