@@ -11,7 +11,7 @@ import pytest
 from hitchpark.checks import InputError
 from hitchpark.control.planner import PATH_COLUMNS, Plan, PlannerSettings, plan
 from hitchpark.control.planner.dubins import dubins_words, sample_word
-from hitchpark.control.planner.motion import PrimitiveBatch
+from hitchpark.control.planner.motion import PathPursuit, PrimitiveBatch
 from hitchpark.control.pure_pursuit import forward_steer_limit
 from hitchpark.model import Pose, VehicleTrailer
 from hitchpark.model.collision import swept_clearance
@@ -241,3 +241,39 @@ def test_dubins_words_end_at_their_goal(seed):
             last = sample_word(start, word, lengths, radius, 0.1)[-1]
             assert last[:2] == pytest.approx(end[:2], abs=1e-6)
             assert math.remainder(last[2] - end[2], 2 * math.pi) == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_pursuit_run_is_held_where_it_first_ended_whether_asked_each_sample_or_in_blocks(monkeypatch):
+    """PathPursuit asks ``ended`` about blocks of samples: the runs must be those of asking every sample."""
+    runs, step = 5, 0.1
+    pursuit = PathPursuit(VEHICLE, step, runs)
+    # Straight references behind the start (reverse along -x), offsets across so the runs differ.
+    xs = -np.arange(0.0, 12.0, step)
+    references = np.stack([np.column_stack([xs, np.full(len(xs), 0.3 * (r - 2))]) for r in range(runs)])
+    stops = np.array([-1.0, -3.37, -6.0, -0.55, -20.0])  # the last never stops: its reference ends first
+    asked: list[int] = []
+
+    def run() -> np.ndarray:
+        start = np.array([0.0, 0.0, 0.0, 0.05, 0.0])
+        return pursuit.run(start, references, np.full(runs, 2.0), 0.5, ended_rows)
+
+    def ended_rows(states: np.ndarray, deviation: np.ndarray) -> np.ndarray:
+        asked.append(len(states))  # rows: the samples of run 0, then of run 1, ...
+        per_run = len(states) // runs
+        which = np.repeat(np.arange(runs), per_run)
+        return states[:, 0] <= stops[which]
+
+    blocks = run()
+    assert max(asked) > runs  # asked about several samples of each run at once
+    monkeypatch.setattr(PathPursuit, "CHECK_EVERY", 1)
+    asked.clear()
+    each = run()
+    assert max(asked) == runs
+    np.testing.assert_array_equal(blocks, each)
+    for r in range(4):  # each stopping run: held from the first sample past its stop on
+        first = int(np.argmax(blocks[r, :, 0] <= stops[r]))
+        assert first > 0 and np.all(blocks[r, :first, 0] > stops[r])
+        np.testing.assert_array_equal(
+            blocks[r, first:], np.repeat(blocks[r, first : first + 1], blocks.shape[1] - first, 0)
+        )
+    assert blocks.shape[1] == len(xs) + PathPursuit.WINDOW + 1  # the last run never ended: to the end of the references
