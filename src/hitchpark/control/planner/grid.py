@@ -22,6 +22,7 @@ on this grid has no path.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -32,7 +33,7 @@ from scipy.sparse import csgraph
 from ...model.scene import Scene
 from ...model.vehicle import VehicleTrailer
 
-__all__ = ["Discs", "DistanceGrid", "HolonomicHeuristic"]
+__all__ = ["Discs", "DistanceGrid", "HolonomicHeuristic", "distance_grid"]
 
 #: Spacing of the points on the body outlines [m].
 POINT_SPACING = 0.1
@@ -125,6 +126,7 @@ class DistanceGrid:
             self.distance = ndimage.distance_transform_edt(~blocked) * cell
         else:
             self.distance = np.full(self.shape, np.inf)
+        self.distance.flags.writeable = False  # shared between plans (distance_grid)
 
     def lookup(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Grid distance at world points; ``-inf`` outside the grid (out of bounds counts as blocked)."""
@@ -138,6 +140,13 @@ class DistanceGrid:
     def clear(self, x: np.ndarray, y: np.ndarray, need: np.ndarray) -> np.ndarray:
         """True where the true distance from the scene surely exceeds ``need`` (broadcast with x, y)."""
         return self.lookup(x, y) - self.error > need
+
+
+@functools.lru_cache(maxsize=8)
+def distance_grid(scene: Scene, bounds: tuple[float, float, float, float], cell: float) -> DistanceGrid:
+    """:class:`DistanceGrid` of ``scene``, made once per scene, bounds and cell: a sweep over a scene with an area
+    plans every case on the same grid (its bounds are the area's)."""
+    return DistanceGrid(scene, bounds, cell)
 
 
 class HolonomicHeuristic:

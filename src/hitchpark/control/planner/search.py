@@ -16,7 +16,7 @@ from ...model.state import Pose, State, check_goal, check_state, to_goal_frame
 from ...model.vehicle import VehicleTrailer, check_vehicle
 from ..pure_pursuit import forward_steer_limit
 from .endgame import EndGame
-from .grid import Discs, DistanceGrid, HolonomicHeuristic
+from .grid import Discs, HolonomicHeuristic, distance_grid
 from .heuristic import TrailerTable, trailer_table
 from .motion import PrimitiveBatch
 from .nodes import Node
@@ -121,7 +121,7 @@ class _Search:
         self.opening_batch = PrimitiveBatch(vehicle, OPENING_FORWARD_M, opening_samples, s.steer_samples)
         self.discs = Discs(vehicle)
         self.bounds = self._bounds()
-        self.grid = DistanceGrid(scene, self.bounds, s.collision_cell_m)
+        self.grid = distance_grid(scene, self.bounds, s.collision_cell_m)
         self.need = self.discs.radius + s.min_clearance_m
         self.holonomic: HolonomicHeuristic | None = None
         if not scene.is_empty:
