@@ -153,3 +153,31 @@ def test_the_obstacle_ocp_keeps_its_plan_clear_where_the_open_one_does_not():
     nmpc.keep_clear(Scene(), need)  # back in open space: the open OCP again
     nmpc.reset()
     assert _plan_clearances(nmpc, start, goal, wall)[1] == pytest.approx(open_least, abs=1e-6)
+
+
+def test_lines_within_reach_are_those_of_all_pieces_and_none_far_off():
+    """``lines(..., reach)`` measures only the pairs of body and piece whose boxes come within reach: where
+    it measures, the same distances and lines as measuring every pair; elsewhere no distance; and a body
+    far from every piece gets none at all (no pair to measure)."""
+    lines = ClearanceConstraints(VEHICLE, 2)
+    lines.use(SCENE, 0.25)
+    goal = Pose(0.5, -0.2, 0.05)
+    rng = np.random.default_rng(5)
+    for _ in range(40):
+        at = np.array([rng.uniform(-2, 8), rng.uniform(-1.5, 1.5), rng.uniform(-0.5, 0.5), rng.uniform(-0.3, 0.3)])
+        corners = body_corners(VEHICLE, *at)
+        quads = []
+        for name in lines.bodies:
+            points = [np.array(p, dtype=float) for p in corners[name]]
+            quads.append(np.stack(points if len(points) == 4 else [*points, *points[::-1]]))
+        bodies = np.stack(quads)
+        every = lines.lines(bodies, goal)
+        near = lines.lines(bodies, goal, reach=REACH_M)
+        measured = np.isfinite(near[0])
+        assert np.all(every[0][~measured] > REACH_M)  # only far pairs go unmeasured
+        np.testing.assert_array_equal(near[0][measured], every[0][measured])
+        np.testing.assert_array_equal(near[1][measured], every[1][measured])
+        np.testing.assert_array_equal(near[2][measured], every[2][measured])
+    far = bodies + 100.0
+    distance, _, _ = lines.lines(far, goal, reach=REACH_M)
+    assert np.all(np.isinf(distance))

@@ -108,13 +108,16 @@ def separating_lines(
     """Distance, normal and offset of the line separating each convex body from each segment.
 
     ``points``: the bodies' corners ``(k, c, 2)`` (c = 2: a segment; c > 2: a convex polygon,
-    counter-clockwise); ``ends``: segments ``(m, 2, 2)``; ``free``: their normals to the free side ``(m, 2)``.
+    counter-clockwise); ``ends``: segments ``(m, 2, 2)``, the same for every body, or ``(k, m, 2, 2)``, each
+    body its own; ``free``: their normals to the free side ``(m, 2)`` or ``(k, m, 2)``.
     Returns ``distance (k, m)``, ``n (k, m, 2)`` (unit, from the segment towards the body) and
     ``h (k, m)`` = max over the segment's ends of ``n . q``; where a body overlaps a segment, distance 0
     and ``n`` the segment's free normal.
     """
     k, c = points.shape[:2]
-    a, b = ends[None, None, :, 0], ends[None, None, :, 1]  # (1, 1, m, 2)
+    ends = ends if ends.ndim == 4 else ends[None]  # (k or 1, m, 2, 2)
+    free = free if free.ndim == 3 else free[None]
+    a, b = ends[:, None, :, 0], ends[:, None, :, 1]  # (k or 1, 1, m, 2)
     p = points[:, :, None, :]  # (k, c, 1, 2)
     # Corners to the segment.
     q = _nearest_on(p, a, b)  # (k, c, m, 2)
@@ -123,7 +126,7 @@ def separating_lines(
     starts = points if c > 2 else points[:, :1]
     stops = np.roll(points, -1, axis=1) if c > 2 else points[:, 1:]
     e0, e1 = starts[:, :, None, None, :], stops[:, :, None, None, :]  # (k, e, 1, 1, 2)
-    tips = ends[None, None, :, :, :]  # (1, 1, m, 2, 2)
+    tips = ends[:, None]  # (k or 1, 1, m, 2, 2)
     r = _nearest_on(tips, e0, e1)  # (k, e, m, 2, 2)
     tip_gap = np.hypot(*np.moveaxis(tips - r, -1, 0))  # (k, e, m, 2)
     # The nearest pair over both kinds.
@@ -138,7 +141,8 @@ def separating_lines(
         points[km[0], i_corner],
         r.transpose(0, 2, 1, 3, 4).reshape(k, -1, tip_gap.shape[1] * 2, 2)[km[0], km[1], i_tip],
     )
-    scene_pt = np.where((d_corner <= d_tip)[..., None], q[km[0], i_corner, km[1]], ends[km[1], i_tip % 2])
+    tip_pt = ends[km[0] if len(ends) > 1 else 0, km[1], i_tip % 2]
+    scene_pt = np.where((d_corner <= d_tip)[..., None], q[km[0], i_corner, km[1]], tip_pt)
     distance = np.minimum(d_corner, d_tip)
     # Overlap: an edge of the body crosses the segment, or the segment lies inside the (polygon) body.
     s0, s1 = starts[:, :, None, :], stops[:, :, None, :]  # (k, e, 1, 2)
@@ -154,9 +158,9 @@ def separating_lines(
     overlap = crossing | (distance < 1e-9)
     with np.errstate(invalid="ignore", divide="ignore"):
         n = (body_pt - scene_pt) / distance[..., None]
-    n = np.where(overlap[..., None], free[None], n)
+    n = np.where(overlap[..., None], free, n)
     distance = np.where(overlap, 0.0, distance)
-    h = np.maximum(np.sum(n * ends[None, :, 0], -1), np.sum(n * ends[None, :, 1], -1))
+    h = np.maximum(np.sum(n * ends[:, :, 0], -1), np.sum(n * ends[:, :, 1], -1))
     return distance, n, h
 
 
@@ -226,24 +230,41 @@ class ClearanceConstraints:
         return self._framed[1], self._framed[2], self._framed[3]
 
     def lines(
-        self, points: np.ndarray, goal: Pose, anchor: np.ndarray | None = None, pieces: np.ndarray | None = None
+        self,
+        points: np.ndarray,
+        goal: Pose,
+        anchor: np.ndarray | None = None,
+        pieces: np.ndarray | None = None,
+        reach: float | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Distance ``(k, j)`` from bodies ``(k, c, 2)`` (parking frame) to each piece, and the line each gets:
         normal ``(k, j, 2)`` and offset ``h`` ``(k, j)`` (see the module text). ``anchor``: each body where
         the car is now ``(k, c, 2)``; an edge's normal must leave the gap to it as well. ``pieces``: the
-        indices of the pieces to look at (default: all). A segment body may come as ``(a, b, b, a)``."""
+        indices of the pieces to look at (default: all). A segment body may come as ``(a, b, b, a)``.
+        ``reach``: a body and a piece whose bounding boxes are farther apart get distance ``inf`` and no
+        line worth having (none is measured: the lines of a step come from the pieces within reach)."""
         vertices, outward, real = self._in_goal_frame(goal)
         if pieces is not None:
             vertices, outward, real = vertices[pieces], outward[pieces], real[pieces]
         n_pieces, size = real.shape
         k = len(points)
-        # Nearest points, over the real edges of every piece.
-        ends = np.stack([vertices, np.roll(vertices, -1, axis=1)], 2)[real]  # (m, 2, 2)
-        gap, normal, _ = separating_lines(points, ends, outward[real])
+        # Nearest points, over the real edges of every piece (or of the pieces within reach of each body).
+        edges = np.stack([vertices, np.roll(vertices, -1, axis=1)], 2)  # (j, v, 2, 2)
         gaps = np.full((k, n_pieces, size), np.inf)
-        gaps[:, real] = gap
         normals = np.zeros((k, n_pieces, size, 2))
-        normals[:, real] = normal
+        if reach is None:
+            gap, normal, _ = separating_lines(points, edges[real], outward[real])
+            gaps[:, real] = gap
+            normals[:, real] = normal
+        else:
+            low, high = points.min(axis=1), points.max(axis=1)  # (k, 2)
+            apart = np.maximum(vertices.min(axis=1)[None] - high[:, None], low[:, None] - vertices.max(axis=1)[None])
+            apart = np.maximum(apart, 0.0)  # (k, j, 2): the gap between the boxes along x and y
+            body, piece = np.nonzero(np.hypot(apart[..., 0], apart[..., 1]) <= reach)
+            if len(body):
+                gap, normal, _ = separating_lines(points[body], edges[piece], outward[piece])  # (pairs, v)
+                gaps[body, piece] = np.where(real[piece], gap, np.inf)
+                normals[body, piece] = normal
         best = np.argmin(gaps, axis=2)  # the nearest edge of each piece
         distance = np.take_along_axis(gaps, best[..., None], 2)[..., 0]
         nearest = np.take_along_axis(normals, best[..., None, None], 2)[:, :, 0]
@@ -294,7 +315,7 @@ class ClearanceConstraints:
             return out.reshape(n_steps * self.n_params)
         n_bodies = len(self.bodies)
         anchors = np.repeat(bodies[:, :1], n_steps, axis=1).reshape(-1, 4, 2) if anchored else None
-        distance, n, h = self.lines(bodies[:, 1:].reshape(-1, 4, 2), goal, anchors, pieces)
+        distance, n, h = self.lines(bodies[:, 1:].reshape(-1, 4, 2), goal, anchors, pieces, REACH_M)
         take = min(self.planes, len(pieces))
         nearest = np.argsort(distance, axis=1)[:, :take]  # (b k, take)
         rows = np.arange(len(distance))[:, None]
