@@ -181,3 +181,25 @@ def test_lines_within_reach_are_those_of_all_pieces_and_none_far_off():
     far = bodies + 100.0
     distance, _, _ = lines.lines(far, goal, reach=REACH_M)
     assert np.all(np.isinf(distance))
+
+
+def test_a_warm_start_that_keeps_the_clearance_keeps_to_its_own_lines():
+    """``keep_warm``: wherever the car is now, a warm start whose bodies keep the clearance at a step meets
+    every line drawn for that step (anchored lines alone can cut it where it rounds a piece)."""
+    lines = ClearanceConstraints(VEHICLE, 3)
+    lines.use(SCENE, 0.25)
+    goal = Pose(0.5, -0.2, 0.05)
+    rng = np.random.default_rng(8)
+    checked = cut_without = 0
+    for _ in range(300):
+        now = np.array([rng.uniform(-1, 7), rng.uniform(-0.8, 0.8), rng.uniform(-0.6, 0.6), rng.uniform(-0.4, 0.4)])
+        at = now + rng.normal(0.0, [1.5, 0.6, 0.3, 0.2])
+        x, y, yaw = from_goal_frame(goal, *at[:3])
+        if clearance(VEHICLE, SCENE, x, y, yaw, at[3]) < 0.25:
+            continue
+        checked += 1
+        states = np.vstack([now, at])
+        kept = lines.parameters(goal, states, keep_warm=True)
+        assert lines.least_slack(states, kept) >= -1e-9
+        cut_without += lines.least_slack(states, lines.parameters(goal, states)) < -1e-9
+    assert checked > 100 and cut_without > 0  # the anchored lines alone do cut some of them

@@ -165,7 +165,8 @@ class FullNMPC(RecedingHorizon):
         if lines is None:
             return np.zeros((n, 0))
         states, _ = self.transcription.unpack(warm, x0)
-        return lines.parameters(self._goal, np.vstack([x0[None, :], states[1:]])).reshape(n, -1)
+        warm_started = self._last_inputs is not None  # the last plan moved on, not a cold guess
+        return lines.parameters(self._goal, np.vstack([x0[None, :], states[1:]]), keep_warm=warm_started).reshape(n, -1)
 
     def _step_parameters(
         self, warm: np.ndarray, x0: np.ndarray, problem: FullParkingProblem | None = None
