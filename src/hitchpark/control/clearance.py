@@ -15,7 +15,9 @@ lesser of the two): the nearest points give the widest gap at step k, but a line
 turned towards where the warm start passes it, or an edge's line across the way the car came, would hold
 the plan back from where it could safely be (behind the warm start along an obstacle), and a plan that
 must go slower than its warm start would find no room. Where the warm start overlaps the piece, the edge
-whose line it crosses least. ``h`` is the piece's
+whose line it crosses least. Where no line leaves the gap both there and now (the body rounds the piece)
+and the chosen one would cut a warm start that keeps the clearance there, that step takes its own line
+(``keep_warm``: the warm start is the last plan, which kept its lines). ``h`` is the piece's
 largest ``n . q``. The OCP then asks ``n . p_i(X_k) >= h + c`` of every corner ``p_i``: linear in the
 corners, which are smooth in the state. A prediction that meets the lines keeps ``c`` from every piece
 that has one, never less. These numbers are parameters of the NLP, so one compiled solver serves every
@@ -297,7 +299,7 @@ class ClearanceConstraints:
         start is the last plan moved on, which kept its lines; where an anchored line would cut its body at
         a step that keeps the clearance from that piece, the body takes its own step's line there instead
         (measured on the driveway: anchored lines cut such a plan by up to 0.78 m and the solvers found the
-        problem infeasible, four ticks of 250-340 ms). A cold guess, which may pass through a piece, keeps
+        problem infeasible: four ticks of 250-470 ms). A cold guess, which may pass through a piece, keeps
         the anchored lines: the first steps must stay reachable from where the car is."""
         states = np.asarray(states, dtype=float)
         n_steps = len(states) - 1
@@ -328,11 +330,11 @@ class ClearanceConstraints:
             # both there and where the car is now): that body and step take the line of its own step.
             slack = np.einsum("kcx,kjx->kcj", placed, n).min(axis=1) - h - self._clearance  # (b k, j)
             cut = (slack < 0.0) & (distance >= self._clearance) & np.isfinite(distance)
-            rows = np.flatnonzero(cut.any(axis=1))
-            if len(rows):
-                _, own_n, own_h = self.lines(placed[rows], goal, None, pieces, REACH_M)
-                n[rows] = np.where(cut[rows][..., None], own_n, n[rows])
-                h[rows] = np.where(cut[rows], own_h, h[rows])
+            redo = np.flatnonzero(cut.any(axis=1))
+            if len(redo):
+                _, own_n, own_h = self.lines(placed[redo], goal, None, pieces, REACH_M)
+                n[redo] = np.where(cut[redo][..., None], own_n, n[redo])
+                h[redo] = np.where(cut[redo], own_h, h[redo])
         take = min(self.planes, len(pieces))
         nearest = np.argsort(distance, axis=1)[:, :take]  # (b k, take)
         rows = np.arange(len(distance))[:, None]
