@@ -20,6 +20,9 @@ from hitchpark.model import (
     virtual_steer_bounds,
     wrap_angle,
 )
+from hitchpark.model.inverse import virtual_steer_from_front
+from hitchpark.model.kinematics import trailer_speed_from_rear_speed
+from hitchpark.model.state import clamp
 
 Q4, R4, P4 = np.diag([1.0, 10.0, 10.0]), np.diag([0.0, 0.1]), np.diag([1.0, 10.0, 10.0])
 
@@ -77,6 +80,30 @@ def test_wrap_angle_range_and_value():
     np.testing.assert_allclose(np.sin(w), np.sin(a), atol=1e-12)
     assert float(wrap_angle(np.pi)) == -np.pi  # the half-open end
     assert float(wrap_angle(0.3)) == pytest.approx(0.3)
+
+
+@given(st.floats(-1e6, 1e6), st.floats(-50.0, 50.0), st.floats(-50.0, 50.0), st.floats(-3.0, 3.0))
+def test_the_scalar_paths_give_what_the_array_paths_give(angle, x, y, yaw):
+    """The control loop's floats skip NumPy (wrap_angle, to_goal_frame, clamp): the same answers."""
+    scalar, array = wrap_angle(angle), float(wrap_angle(np.array([angle]))[0])
+    assert isinstance(scalar, float) and -math.pi <= scalar < math.pi
+    assert scalar == pytest.approx(array, abs=1e-12) or abs(abs(scalar - array) - 2 * math.pi) < 1e-9
+    goal = Pose(1.5, -2.0, 0.7)
+    floats = to_goal_frame(goal, x, y, yaw)
+    arrays = to_goal_frame(goal, np.array([x]), np.array([y]), np.array([yaw]))
+    for a, b in zip(floats, arrays, strict=True):
+        assert isinstance(a, float)
+        assert a == pytest.approx(float(b[0]), abs=1e-9) or abs(abs(a - float(b[0])) - 2 * math.pi) < 1e-9
+    assert clamp(x, -1.0, 2.0) == float(np.clip(x, -1.0, 2.0))
+    assert math.isnan(clamp(math.nan, -1.0, 2.0))
+    hitch, steer = yaw / 3.0, yaw / 5.0  # Eqs. (18) and (56) in math for floats, in NumPy for arrays
+    v = VehicleTrailer()
+    assert trailer_speed_from_rear_speed(v, hitch, -0.8, steer) == pytest.approx(
+        float(trailer_speed_from_rear_speed(v, np.array([hitch]), -0.8, np.array([steer]))[0]), abs=1e-12
+    )
+    assert virtual_steer_from_front(v, hitch, steer) == pytest.approx(
+        float(virtual_steer_from_front(v, np.array([hitch]), np.array([steer]))[0]), abs=1e-12
+    )
 
 
 def test_wrap_angle_just_below_minus_pi():
