@@ -31,7 +31,7 @@ from ..checks import MAX_SPEED, Real, check_fields, checked
 from ..model.inverse import front_steer_from_virtual
 from ..model.kinematics import rear_axle_pose
 from ..model.plant import Command, Measurement
-from ..model.state import Pose, wrap_angle
+from ..model.state import Pose, clamp, wrap_angle
 from ..model.vehicle import VehicleTrailer
 from .nmpc import NMPCStep
 from .pure_pursuit import command_step, forward_steer_limit, pursuit_steer
@@ -186,7 +186,7 @@ class PathTracker:
         # Driven backwards, a positive virtual steer turns the direction of travel the other way.
         virtual = -pursuit_steer(v.trailer_length, alpha, distance, self.settings.virtual_limit)
         front = float(front_steer_from_virtual(v, float(state[3]), virtual))  # Eq. (45)
-        return float(np.clip(front, -v.max_steer, v.max_steer))
+        return clamp(front, -v.max_steer, v.max_steer)
 
     def initial_steer(self, measurement: Measurement, goal: Pose) -> float | None:
         state = measurement.state.as_array()

@@ -23,7 +23,7 @@ from ..checks import MAX_SPEED, Real, check_fields, checked
 from ..model.inverse import virtual_steer_from_front
 from ..model.kinematics import rear_axle_pose, trailer_speed_from_rear_speed
 from ..model.plant import Command, Measurement
-from ..model.state import Pose, to_goal_frame, wrap_angle
+from ..model.state import Pose, clamp, to_goal_frame, wrap_angle
 from ..model.vehicle import VehicleTrailer
 from .nmpc import NMPCStep
 
@@ -121,7 +121,7 @@ def pursuit_steer(length: float, alpha: float, distance: float, limit: float) ->
     """
     if abs(alpha) > math.pi / 2:
         return math.copysign(limit, alpha)
-    return float(np.clip(math.atan(2.0 * length * math.sin(alpha) / distance), -limit, limit))
+    return clamp(math.atan(2.0 * length * math.sin(alpha) / distance), -limit, limit)
 
 
 def forward_done(goal: Pose, settings: PurePursuitSettings, state: np.ndarray) -> bool:
