@@ -11,7 +11,7 @@ import pytest
 from hitchpark.checks import InputError
 from hitchpark.control.planner import PATH_COLUMNS, Plan, PlannerSettings, plan
 from hitchpark.control.planner.dubins import dubins_words, sample_word
-from hitchpark.control.planner.motion import PathPursuit, PrimitiveBatch
+from hitchpark.control.planner.motion import PathPursuit, PrimitiveBatch, _pursuit_step_function
 from hitchpark.control.pure_pursuit import forward_steer_limit
 from hitchpark.model import Pose, VehicleTrailer
 from hitchpark.model.collision import swept_clearance
@@ -277,3 +277,37 @@ def test_a_pursuit_run_is_held_where_it_first_ended_whether_asked_each_sample_or
             blocks[r, first:], np.repeat(blocks[r, first : first + 1], blocks.shape[1] - first, 0)
         )
     assert blocks.shape[1] == len(xs) + PathPursuit.WINDOW + 1  # the last run never ended: to the end of the references
+
+
+@pytest.mark.parametrize("compiled", [False, True], ids=["casadi", "compiled"])
+def test_a_compiled_pursuit_chunk_follows_the_nearest_point_search_done_sample_by_sample(compiled, request):
+    """The chunks, compiled to C or in CasADi's virtual machine (the nearest point searched at computed
+    indices), give the runs of a plain loop: the nearest of the next WINDOW points in NumPy (the first of
+    equals), one RK4 step towards the point ``ahead`` samples past it, indices clipped to the end."""
+    if compiled:
+        request.getfixturevalue("jit_cache")
+    runs, step = 3, 0.1
+    rng = np.random.default_rng(5)
+    pursuit = PathPursuit(VEHICLE, step, runs)
+    # Curved references behind the start, of different bends, one shorter than the others (padded).
+    t = np.arange(0.0, 9.0, step)
+    references = np.stack([np.column_stack([-t, 0.15 * r * t + 0.02 * (r - 1) * t**2]) for r in range(runs)])
+    references[2, 60:] = references[2, 59]  # padded with its last point
+    lookaheads = np.array([1.0, 2.0, 3.3])
+    start = np.array([0.2, -0.1, rng.uniform(-0.1, 0.1), 0.05, 0.0])
+    never = lambda states, deviation: np.zeros(len(states), dtype=bool)  # noqa: E731
+    compiled = pursuit.run(start, references, lookaheads, 0.5, never)
+
+    one = _pursuit_step_function(VEHICLE, step)
+    m = references.shape[1]
+    for r in range(runs):
+        ahead = max(1, round(lookaheads[r] / step))
+        x, nearest, rows = start.copy(), 0, [start.copy()]
+        for _ in range(m + PathPursuit.WINDOW):
+            candidates = np.minimum(nearest + np.arange(PathPursuit.WINDOW), m - 1)
+            distance = np.hypot(*(references[r, candidates] - x[:2]).T)
+            nearest = int(candidates[np.argmin(distance)])
+            target = references[r, min(nearest + ahead, m - 1)]
+            x = np.asarray(one(x, target, 0.5)).ravel()
+            rows.append(x)
+        np.testing.assert_allclose(compiled[r], np.array(rows), rtol=0, atol=1e-9)

@@ -24,6 +24,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -102,15 +103,57 @@ def _shot_function(vehicle: VehicleTrailer, step: float, runs: int, chunk: int) 
 
 
 @functools.lru_cache(maxsize=16)
-def _pursuit_function(vehicle: VehicleTrailer, step: float, runs: int) -> ca.Function:
-    """``F(x (5, runs), targets (2, runs), limit) -> (5, runs)``: one RK4 step of each run towards its point."""
+def _pursuit_step_function(vehicle: VehicleTrailer, step: float) -> ca.Function:
+    """``F(x (5), target (2), limit) -> (5)``: one RK4 step of a run towards its point."""
     x0, target, limit = ca.SX.sym("x0", 5), ca.SX.sym("target", 2), ca.SX.sym("limit")
 
     def rhs(x: ca.SX) -> ca.SX:
         return _pursuit_rhs(vehicle, x, target[0], target[1], limit, step)
 
-    one = ca.Function("pursuit_step", [x0, target, limit], [_rk4_columns(rhs, x0, step, 1)[:, 1]])
-    return one.map(runs)
+    return ca.Function("pursuit_step", [x0, target, limit], [_rk4_columns(rhs, x0, step, 1)[:, 1]])
+
+
+@functools.lru_cache(maxsize=32)
+def _pursuit_chunk_function(
+    vehicle: VehicleTrailer, step: float, runs: int, capacity: int, chunk: int, window: int
+) -> ca.Function:
+    """``F(x (5, runs), nearest (1, runs), references (capacity, 2 runs), ahead (1, runs), m, limit)`` ->
+    ``(states (5, chunk runs), nearest (1, runs), deviations (1, chunk runs))``: ``chunk`` samples of
+    :class:`PathPursuit` in one call.
+
+    Per run and sample, as :meth:`PathPursuit.run` does it: the nearest of the ``window`` reference points
+    from the last nearest one on (the first of equals; indices clipped to the ``m`` points in use), its
+    distance (the deviation of this sample), then one RK4 step towards the point ``ahead`` samples past it.
+    The reference points are read at computed indices (CasADi's parametric indexing), so the search runs in
+    the compiled code, not in a Python loop.
+    """
+    one = _pursuit_step_function(vehicle, step)
+    x0, nearest0 = ca.MX.sym("x0", 5), ca.MX.sym("nearest")
+    reference, ahead = ca.MX.sym("reference", capacity, 2), ca.MX.sym("ahead")
+    m, limit = ca.MX.sym("m"), ca.MX.sym("limit")
+    rx, ry = reference[:, 0], reference[:, 1]
+    last = m - 1
+    x, nearest = x0, nearest0
+    states, deviations = [], []
+    for _ in range(chunk):
+        best_index, best = nearest, ca.MX(ca.inf)
+        for w in range(window):
+            index = ca.fmin(nearest + w, last)
+            distance = ca.hypot(rx[index] - x[0], ry[index] - x[1])
+            closer = distance < best
+            best_index = ca.if_else(closer, index, best_index)
+            best = ca.if_else(closer, distance, best)
+        nearest = best_index
+        deviations.append(best)
+        target = ca.fmin(nearest + ahead, last)
+        x = one(x, ca.vertcat(rx[target], ry[target]), limit)
+        states.append(x)
+    run = ca.Function(
+        "pursuit_chunk",
+        [x0, nearest0, reference, ahead, m, limit],
+        [ca.horzcat(*states), nearest, ca.horzcat(*deviations)],
+    )
+    return run.map(runs)
 
 
 @functools.lru_cache(maxsize=16)
@@ -224,9 +267,14 @@ class PathPursuit:
 
     def __init__(self, vehicle: VehicleTrailer, step: float, runs: int):
         vehicle.require_hitch_offset()
+        self.vehicle = vehicle
         self.step = step
         self.runs = runs
-        self._function = native(_pursuit_function(vehicle, step, runs))
+
+    def _chunk(self, capacity: int) -> Any:
+        """The compiled :data:`CHECK_EVERY` samples of every run, for references of up to ``capacity`` points."""
+        function = _pursuit_chunk_function(self.vehicle, self.step, self.runs, capacity, self.CHECK_EVERY, self.WINDOW)
+        return native(function)
 
     def run(
         self,
@@ -242,37 +290,40 @@ class PathPursuit:
         point); ``lookaheads`` (runs,) [m]. A run is integrated until ``ended(states, deviation)`` says of
         its state and its distance from the reference that it cannot still arrive (or has); all stop when
         every run has, or at the end of the references. ``ended`` judges each row alone (states (n, 5),
-        deviations (n,)): it is asked about :data:`CHECK_EVERY` samples of every run at once, and a run
-        that ended is then held at the sample where it did, as if it had been stopped there.
+        deviations (n,)): it is asked about :data:`CHECK_EVERY` samples of every run at once (the samples
+        one compiled call integrates), and a run that ended is then given as if it had been stopped there.
         """
         runs, m = references.shape[0], references.shape[1]
-        ahead = np.maximum(1, np.round(np.asarray(lookaheads) / self.step)).astype(np.int64)
-        rows = np.arange(runs)
+        if runs != self.runs:
+            raise ValueError(f"PathPursuit: {runs} references, built for {self.runs}")
+        every = self.CHECK_EVERY
+        capacity = max(256, 1 << (m - 1).bit_length())  # a few compiled sizes, the references padded
+        table = np.zeros((capacity, 2 * runs), order="F")  # as the compiled code lays it out: no copy per call
+        table[:m] = np.asarray(references, dtype=float).transpose(1, 0, 2).reshape(m, 2 * runs)
+        ahead = np.maximum(1, np.round(np.asarray(lookaheads) / self.step))[None, :]
+        chunk = self._chunk(capacity)
         x = np.repeat(np.asarray(start, dtype=float)[:, None], runs, axis=1)
-        nearest = np.zeros(runs, dtype=np.int64)
-        window = np.arange(self.WINDOW)
-        limits = np.full((1, runs), limit)
+        nearest = np.zeros((1, runs))
         states = [x.T.copy()]  # sample i of every run
         deviation: list[np.ndarray] = []  # its distance from the reference, once its nearest point is known
         end = np.full(runs, -1)  # the sample where each run ended (-1: not yet)
         checked = 0  # samples asked about so far
-        for i in range(m + self.WINDOW):
-            candidates = np.minimum(nearest[:, None] + window[None, :], m - 1)
-            gap = references[rows[:, None], candidates] - x[:2].T[:, None, :]
-            distance = np.hypot(gap[..., 0], gap[..., 1])
-            best = np.argmin(distance, axis=1)
-            nearest = candidates[rows, best]
-            deviation.append(distance[rows, best])
-            if i + 1 - checked == self.CHECK_EVERY:
-                checked = self._ended(states, deviation, checked, end, ended)
-                if (end >= 0).all():
-                    break
-            targets = references[rows, np.minimum(nearest + ahead, m - 1)].T
-            x = np.asarray(self._function(x, targets, limits))
-            held = end >= 0
-            x[:, held] = states[-1].T[:, held]  # a run that ended stays where it ended
-            states.append(x.T.copy())
-        else:
+        total = m + self.WINDOW  # samples whose nearest point is searched, at most
+        stopped = False
+        while len(deviation) < total and not stopped:
+            out, nearest, far = chunk(x, nearest, table, ahead, m, limit)
+            block = np.asarray(out).reshape(5, runs, every).transpose(1, 2, 0)  # (runs, every, 5)
+            far = np.asarray(far).reshape(runs, every)
+            for j in range(min(every, total - len(deviation))):
+                deviation.append(far[:, j])
+                if len(deviation) - checked == every:
+                    checked = self._ended(states, deviation, checked, end, ended)
+                    if (end >= 0).all():
+                        stopped = True
+                        break
+                states.append(block[:, j, :])
+            x = block[:, -1, :].T.copy()
+        if not stopped:
             self._ended(states, deviation, checked, end, ended)
         path = np.stack(states, axis=1)  # (runs, samples, 5)
         if (end >= 0).all():
