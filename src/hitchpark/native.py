@@ -146,18 +146,38 @@ def load_cached(name: str, key: str, build: Callable[[str, Path, Path], bool], l
     return None
 
 
-def build_library(function: Any, links: Sequence[str], compiler: str, home: Path, library: Path) -> bool:
+def build_library(
+    function: Any,
+    links: Sequence[str],
+    compiler: str,
+    home: Path,
+    library: Path,
+    extra: Sequence[Any] = (),
+    edit: Callable[[str], str | None] | None = None,
+) -> bool:
     """Generate the C of a CasADi ``function`` and compile it into ``library`` (atomically); False if refused.
 
-    ``links``: libraries of CasADi's package the code calls into (a solver's, say).
+    ``links``: libraries of CasADi's package the code calls into (a solver's, say). ``extra``: more CasADi
+    functions compiled into the same library (their own C file), which ``edit`` links in: it rewrites the
+    C of ``function`` to call them, or returns None, and then the library is built without them.
     """
     casadi_home = _casadi_home()
     with tempfile.TemporaryDirectory(dir=home) as scratch:
         source = Path(scratch) / f"{library.stem}.c"
+        sources = [source]
         here = os.getcwd()
         try:
-            os.chdir(scratch)  # CasADi writes the file into the working folder
+            os.chdir(scratch)  # CasADi writes the files into the working folder
             function.generate(source.name, {"main": False, "with_header": False})
+            if extra and edit is not None:
+                edited = edit(source.read_text())
+                if edited is not None:
+                    more = ca.CodeGenerator(f"{library.stem}_more.c", {"main": False, "with_header": False})
+                    for f in extra:
+                        more.add(f)
+                    more.generate()
+                    source.write_text(edited)
+                    sources.append(Path(scratch) / f"{library.stem}_more.c")
         except RuntimeError:
             return False
         finally:
@@ -169,7 +189,7 @@ def build_library(function: Any, links: Sequence[str], compiler: str, home: Path
             f"-DCASADI_MAX_NUM_THREADS={MAX_INSTANCES}",
             "-fPIC",
             "-shared",
-            str(source),
+            *map(str, sources),
             f"-I{casadi_home / 'include'}",
             f"-L{casadi_home}",
             f"-Wl,-rpath,{casadi_home}",

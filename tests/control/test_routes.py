@@ -3,6 +3,7 @@ the same solver, cached, and reports its failures."""
 
 from __future__ import annotations
 
+import ctypes
 import math
 import subprocess
 from dataclasses import replace
@@ -107,9 +108,12 @@ def test_generated_c_is_the_same_solver_cached_and_leaves_nothing_behind(jit_cac
     controller, problems = paper_problems
     tr = controller.transcription
     equality = list(tr.lbg == tr.ubg)
-    generated = make_solver("fatrop_c", tr.nlp, equality)
+    generated = make_solver("fatrop_c", tr.nlp, equality, transcription=tr)
     assert isinstance(generated, GeneratedNLP)
     (entry,) = cache.iterdir()
+    # The NLP's functions stage by stage are linked in (control/stagewise.py): their symbols are there.
+    (library,) = entry.glob("*.so")
+    assert hasattr(ctypes.CDLL(str(library)), "hitchpark_fatrop_c_stage_hess_l")
     assert [p.suffix for p in entry.iterdir() if not p.name.startswith(".")] == [".so"]
     assert list(work.iterdir()) == [], "nothing written into the working folder"
     in_process = make_solver("fatrop", tr.nlp, equality)
@@ -125,7 +129,7 @@ def test_generated_c_is_the_same_solver_cached_and_leaves_nothing_behind(jit_cac
         raise AssertionError("compiled again although the cache holds this solver")
 
     monkeypatch.setattr(subprocess, "run", refuse)
-    again = make_solver("fatrop_c", tr.nlp, equality)
+    again = make_solver("fatrop_c", tr.nlp, equality, transcription=tr)
     assert isinstance(again, GeneratedNLP) and again is not generated
     assert _solve_all(again, problems[:1])[0][2] == pytest.approx(_solve_all(in_process, problems[:1])[0][2])
 
@@ -248,7 +252,7 @@ def test_generated_routes_reach_the_reference_optimum(
     controller, problems = _problems(ocp, paper_problems, full_problems, obstacle_problems)
     tr = controller.transcription
     equality = list(tr.lbg == tr.ubg)
-    solver = make_solver(route, tr.nlp, equality)
+    solver = make_solver(route, tr.nlp, equality, transcription=tr)  # fatrop: its functions stage by stage
     assert isinstance(solver, GeneratedNLP)
     reference = _solve_all(make_solver("ipopt", tr.nlp, equality), problems)
     for problem, (ok, w, f), (_, w_ref, f_ref) in zip(problems, _solve_all(solver, problems), reference, strict=True):

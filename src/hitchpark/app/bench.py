@@ -239,7 +239,7 @@ def bench_ocp(
     for name in dict.fromkeys(["ipopt", *routes]):
         progress(f"{ocp.name}: {name} on {len(problems)} problems")
         with quiet_stderr():
-            solver = make_solver(name, tr.nlp, equality, jit=bool(ocp.nmpc.jit))
+            solver = make_solver(name, tr.nlp, equality, jit=bool(ocp.nmpc.jit), transcription=tr)
         timed[name] = _time_route(solver, problems, math.inf if name == "ipopt" else ROUTE_BUDGET_S)
     ipopt_median = float(np.median(timed["ipopt"][0]))
     results = {}

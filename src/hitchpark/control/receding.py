@@ -109,7 +109,9 @@ def build_program(problem: OCP) -> Program:
     equality = list(transcription.lbg == transcription.ubg)
     assert s.solver is not None  # resolved per kind by NMPCSettings
     try:
-        solver = make_solver(s.solver, transcription.nlp, equality, s.solver_options, jit=bool(s.jit))
+        solver = make_solver(
+            s.solver, transcription.nlp, equality, s.solver_options, jit=bool(s.jit), transcription=transcription
+        )
     except RuntimeError as exc:  # CasADi refuses an unknown or ill-typed option
         raise InputError(f"nmpc.solver_options are not accepted by {s.solver}: {casadi_reason(exc)}") from None
     fallback = s.fallback_solver

@@ -8,6 +8,7 @@ and ``hitchpark bench`` compares them on recorded problems, never by checking na
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 import sys
@@ -21,6 +22,7 @@ import casadi as ca
 
 from .compiled import compiled_nlpsol
 from .generated import generated_nlpsol
+from .stagewise import stagewise_functions
 
 __all__ = [
     "ROUTES",
@@ -165,18 +167,24 @@ def make_solver(
     equality: Sequence[bool],
     options: Mapping[str, Any] | None = None,
     jit: bool = False,
+    transcription: Any = None,
 ) -> Any:
     """A CasADi ``nlpsol`` of the registered solver ``name`` for ``nlp``, its defaults under ``options``.
 
     ``jit``: compile the NLP's functions to C and cache the solver on disk (:mod:`.compiled`). A generated
-    route is compiled whole whatever ``jit`` says (:mod:`.generated`).
+    route is compiled whole whatever ``jit`` says (:mod:`.generated`); given the ``transcription`` whose
+    NLP ``nlp`` is, a generated structured route evaluates the NLP's functions stage by stage
+    (:mod:`.stagewise`).
     """
     route = ROUTES[name]
     plugin, opts = route.factory(equality)
     opts.update(options or {})
     with quiet_stderr():
         if route.generated:
-            return generated_nlpsol(f"hitchpark_{name}", plugin, nlp, opts)
+            stages = None
+            if transcription is not None and route.structured:
+                stages = functools.partial(stagewise_functions, transcription)
+            return generated_nlpsol(f"hitchpark_{name}", plugin, nlp, opts, stages=stages)
         if jit:
             return compiled_nlpsol(f"nmpc_{name}", plugin, nlp, opts)
         return ca.nlpsol(f"nmpc_{name}", plugin, dict(nlp), opts)
