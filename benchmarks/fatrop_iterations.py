@@ -6,9 +6,11 @@ For each horizon N, records the problems the default controller of ``OCP`` (``pa
 ``obstacles`` or ``tracking``, as ``hitchpark bench`` names them) poses from the first 4 of bench's
 closed-loop starts, solves each with the in-process ``fatrop`` route (the default ``fatrop_c`` is the same
 solver generated to C, which reports no iteration count) and prints the iterations (median, mean, p90,
-max, failures), the generated route's median time per call and per iteration, and what each of the NLP's
-functions costs per call inside the solver (the in-process route with its functions compiled, CasADi's
-own timings): the Lagrangian's Hessian and the constraints' Jacobian are evaluated once an iteration.
+max, failures), the generated route's median time per call and per iteration (as the controller builds it:
+the NLP's functions stage by stage, :mod:`hitchpark.control.stagewise`), and what each of CasADi's
+whole-horizon NLP functions costs per call inside the solver (the in-process route with its functions
+compiled, CasADi's own timings): the Lagrangian's Hessian and the constraints' Jacobian are evaluated once
+an iteration.
 
 ``--set KEY=VALUE`` puts a solver option on top of the route's (``--set fatrop.mu_init=1e-8``), for the
 iterations and the timed route alike; the problems are the same (recorded with the default). A
@@ -59,7 +61,9 @@ def main() -> None:
         plugin, options = ROUTES["fatrop"].factory(equality)
         with quiet_stderr():
             solver = compiled_nlpsol(f"fatrop_iterations_{n}", plugin, tr.nlp, {**options, **overrides})
-            timed = make_solver(str(ocp.nmpc.solver), tr.nlp, equality, overrides, jit=bool(ocp.nmpc.jit))
+            timed = make_solver(
+                str(ocp.nmpc.solver), tr.nlp, equality, overrides, jit=bool(ocp.nmpc.jit), transcription=tr
+            )
         iterations, failures = [], 0
         spent: dict[str, float] = dict.fromkeys(FUNCTIONS, 0.0)
         calls: dict[str, int] = dict.fromkeys(FUNCTIONS, 0)
