@@ -71,6 +71,65 @@ def test_the_tracking_ocp_is_benched_on_the_problems_of_the_nmpc_tracking_the_pl
     assert set(bench.horizon_scaling_ms) == {"10"}
 
 
+class _Problem:
+    def __init__(self, value: float):
+        self.value = value
+
+    def inputs(self) -> dict:
+        return {"x0": self.value}
+
+
+class _Solver:
+    """Answers its input back and logs each call; fails on negative inputs."""
+
+    def __init__(self, name: str, log: list, sleep_s: float = 0.0):
+        self.name, self.log, self.sleep_s, self.ok = name, log, sleep_s, True
+
+    def __call__(self, x0: float) -> dict:
+        self.log.append((self.name, x0))
+        self.ok = x0 >= 0
+        time.sleep(self.sleep_s)
+        return {"x": np.array([x0])}
+
+    def stats(self) -> dict:
+        return {"success": self.ok}
+
+
+def test_timed_jobs_take_turns_each_solving_its_problems_in_order_once():
+    log: list = []
+    a = [_Problem(float(i)) for i in range(8)]
+    b = [_Problem(float(100 + i)) for i in range(4)] + [_Problem(-1.0)]
+    timed = bench_module.time_interleaved(
+        {"a": (_Solver("a", log), a, float("inf")), "b": (_Solver("b", log), b, float("inf"))}, rounds=4
+    )
+    warm = len(a) + len(b)  # each job's first (up to 20) problems are solved once, untimed, before any timing
+    assert log[:warm] == [("a", p.value) for p in a] + [("b", p.value) for p in b]
+    timed_log = log[warm:]
+    # round r: a's problems 2r, 2r+1, then b's share (5 problems in 4 rounds: 1, 1, 1, 2)
+    assert [name for name, _ in timed_log] == list("aabaabaabaabb")
+    assert [x for name, x in timed_log if name == "a"] == [p.value for p in a]
+    assert [x for name, x in timed_log if name == "b"] == [p.value for p in b]
+    wall, cpu, answers = timed["b"]
+    assert len(wall) == len(cpu) == len(answers) == len(b) and np.all(wall >= 0)
+    assert [None if x is None else float(x[0]) for x in answers] == [100.0, 101.0, 102.0, 103.0, None]
+
+
+def test_a_timed_job_stops_once_its_budget_is_spent_while_the_others_go_on():
+    log: list = []
+    problems = [_Problem(float(i)) for i in range(40)]
+    timed = bench_module.time_interleaved(
+        {
+            "slow": (_Solver("slow", log, sleep_s=0.002), problems, 0.01),
+            "fast": (_Solver("fast", log), problems, float("inf")),
+        },
+        rounds=4,
+    )
+    slow_wall, _, slow_answers = timed["slow"]
+    assert 5 <= len(slow_wall) < 10  # stopped after the call that went past 10 ms, within the first round
+    assert [float(x[0]) for x in slow_answers] == [p.value for p in problems[: len(slow_answers)]]
+    assert len(timed["fast"][0]) == len(problems)
+
+
 def test_cli_bench_writes_the_schema(tmp_path, capsys):
     out = tmp_path / "bench.json"
     argv = ["bench", "--json", str(out), "--ocp", "paper", "--routes", "ipopt", "--starts", "1", "--no-scaling"]

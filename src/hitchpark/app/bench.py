@@ -8,7 +8,9 @@ route then solves the same problems, in one run, and is timed call by call: the 
 Python (wall clock, and the process's CPU time beside it), failures (a call that would have needed
 the fallback), and how far its first move lies from IPOPT's. For the paper's OCP each route also
 drives the four paper scenarios, and for each OCP the default route is timed at N = 10, 20, 40, 80.
-Speeds are ratios to the ``ipopt`` route measured in the same run: machines are noisy.
+Speeds are ratios to the ``ipopt`` route measured in the same run: machines are noisy, and their speed
+drifts over minutes, so the routes (and the horizons) take turns, each solving its next share of the
+problems in each of :data:`ROUNDS` rounds (:func:`time_interleaved`).
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from __future__ import annotations
 import gc
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -35,7 +37,17 @@ from ..model.state import Pose, State
 from ..model.vehicle import VehicleTrailer
 from .sweep import DEFAULT_REGION, config_from_scenario, draw_starts
 
-__all__ = ["BENCH_OCPS", "HORIZONS", "BenchOCP", "BenchStart", "OCPBench", "RouteBench", "bench_table", "run_bench"]
+__all__ = [
+    "BENCH_OCPS",
+    "HORIZONS",
+    "BenchOCP",
+    "BenchStart",
+    "OCPBench",
+    "RouteBench",
+    "bench_table",
+    "run_bench",
+    "time_interleaved",
+]
 
 #: Horizons of the scaling test.
 HORIZONS = (10, 20, 40, 80)
@@ -43,6 +55,9 @@ HORIZONS = (10, 20, 40, 80)
 #: A route's calls on one OCP stop after this many seconds (its figures then cover the first ``calls``
 #: problems): BFGS takes seconds per obstacle problem, and would hold the bench up for hours.
 ROUTE_BUDGET_S = 120.0
+
+#: The routes (and the horizons) take turns in this many rounds, each solving its next share of the problems.
+ROUNDS = 8
 
 #: Seed of the starts drawn from the usual region beside the paper's four scenarios.
 START_SEED = 2025
@@ -175,31 +190,73 @@ def record_problems(
     return controller, problems
 
 
+@dataclass
+class _Timing:
+    """One solver's calls on its problems: wall and CPU seconds and answers, in the problems' order."""
+
+    solver: Any
+    problems: Sequence[NLPProblem]
+    budget_s: float = math.inf
+    wall: list[float] = field(default_factory=list)
+    cpu: list[float] = field(default_factory=list)
+    answers: list[Any] = field(default_factory=list)
+
+    def warm_up(self) -> None:
+        """Load caches and libraries before timing."""
+        start = time.perf_counter()
+        for problem in self.problems[: min(20, len(self.problems))]:
+            self.solver(**problem.inputs())
+            if time.perf_counter() - start > self.budget_s / 10:
+                break
+
+    def run(self, problems: Sequence[NLPProblem]) -> None:
+        """Time ``problems`` one call each, until ``budget_s`` seconds of calls are spent in all."""
+        spent = sum(self.wall)
+        for problem in problems:
+            if spent > self.budget_s:
+                return
+            inputs = problem.inputs()
+            t0, c0 = time.perf_counter(), time.process_time()
+            answer = self.solver(**inputs)
+            ok = bool(self.solver.stats()["success"])
+            wall = time.perf_counter() - t0
+            self.cpu.append(time.process_time() - c0)
+            self.wall.append(wall)
+            spent += wall
+            self.answers.append(np.asarray(answer["x"]).ravel() if ok else None)
+
+    def result(self) -> tuple[np.ndarray, np.ndarray, list[Any]]:
+        """Wall and CPU ms per call, and each answer (None where the solver failed)."""
+        return 1e3 * np.array(self.wall), 1e3 * np.array(self.cpu), self.answers
+
+
+def time_interleaved(
+    jobs: Mapping[str, tuple[Any, Sequence[NLPProblem], float]], rounds: int = ROUNDS
+) -> dict[str, tuple[np.ndarray, np.ndarray, list[Any]]]:
+    """Wall and CPU ms per call, and each answer (None where the solver failed), of each job ``(solver,
+    problems, budget_s)``: its problems in order, one call each, until ``budget_s`` seconds of calls are
+    spent (a route far slower than the rest is not run to the end).
+
+    The jobs take turns: in each of ``rounds`` rounds every job solves its next ``1/rounds`` share of its
+    problems, so that a machine whose speed drifts over minutes slows every job alike and the ratios
+    between them are of one time.
+    """
+    timings = {key: _Timing(solver, problems, budget) for key, (solver, problems, budget) in jobs.items()}
+    for timing in timings.values():
+        timing.warm_up()
+    gc.collect()
+    for r in range(rounds):
+        for timing in timings.values():
+            n = len(timing.problems)
+            timing.run(timing.problems[n * r // rounds : n * (r + 1) // rounds])
+    return {key: timing.result() for key, timing in timings.items()}
+
+
 def _time_route(
     solver: Any, problems: Sequence[NLPProblem], budget_s: float = math.inf
 ) -> tuple[np.ndarray, np.ndarray, list[Any]]:
-    """Wall and CPU ms per call, and each answer (None where the solver failed), over the problems in order
-    until ``budget_s`` seconds of calls are spent (a route far slower than the rest is not run to the end)."""
-    start = time.perf_counter()
-    for problem in problems[: min(20, len(problems))]:  # load caches and libraries before timing
-        solver(**problem.inputs())
-        if time.perf_counter() - start > budget_s / 10:
-            break
-    gc.collect()
-    wall: list[float] = []
-    cpu: list[float] = []
-    answers: list[Any] = []
-    for problem in problems:
-        if sum(wall) > budget_s:
-            break
-        inputs = problem.inputs()
-        t0, c0 = time.perf_counter(), time.process_time()
-        answer = solver(**inputs)
-        ok = bool(solver.stats()["success"])
-        wall.append(time.perf_counter() - t0)
-        cpu.append(time.process_time() - c0)
-        answers.append(np.asarray(answer["x"]).ravel() if ok else None)
-    return 1e3 * np.array(wall), 1e3 * np.array(cpu), answers
+    """Wall and CPU ms per call, and each answer (None where the solver failed), of one solver alone."""
+    return time_interleaved({"": (solver, problems, budget_s)}, rounds=1)[""]
 
 
 def _final_errors(route: str, ocp: BenchOCP) -> dict[str, dict[str, float]]:
@@ -235,12 +292,14 @@ def bench_ocp(
     # Only the problems of this OCP: a tracking loop that fell back on the 3-stage process parked at the goal.
     problems = [problem for problem in problems if len(problem.p) == n_p]
     equality = list(tr.lbg == tr.ubg)
-    timed: dict[str, tuple[np.ndarray, np.ndarray, list[Any]]] = {}
+    jobs = {}
     for name in dict.fromkeys(["ipopt", *routes]):
-        progress(f"{ocp.name}: {name} on {len(problems)} problems")
+        progress(f"{ocp.name}: building the {name} route")
         with quiet_stderr():
             solver = make_solver(name, tr.nlp, equality, jit=bool(ocp.nmpc.jit), transcription=tr)
-        timed[name] = _time_route(solver, problems, math.inf if name == "ipopt" else ROUTE_BUDGET_S)
+        jobs[name] = (solver, problems, math.inf if name == "ipopt" else ROUTE_BUDGET_S)
+    progress(f"{ocp.name}: {', '.join(jobs)} on {len(problems)} problems, taking turns")
+    timed = time_interleaved(jobs)
     ipopt_median = float(np.median(timed["ipopt"][0]))
     results = {}
     for name in routes:
@@ -267,11 +326,13 @@ def bench_ocp(
         )
     default = ocp.nmpc.solver
     assert default is not None
-    scaling = {}
+    horizon_jobs = {}
     for horizon in horizons:
-        progress(f"{ocp.name}: the default route ({default}) at N = {horizon}")
+        progress(f"{ocp.name}: recording the default route ({default}) at N = {horizon}")
         controller, recorded = record_problems(ocp, vehicle, starts[:4], horizon)
-        scaling[str(horizon)] = float(np.median(_time_route(controller.solver, recorded)[0]))
+        horizon_jobs[str(horizon)] = (controller.solver, recorded, math.inf)
+    progress(f"{ocp.name}: the default route at N = {', '.join(horizon_jobs)}, taking turns")
+    scaling = {key: float(np.median(wall)) for key, (wall, _, _) in time_interleaved(horizon_jobs).items()}
     return OCPBench(results, default, scaling, len(problems), len(starts))
 
 
