@@ -85,6 +85,8 @@ BAD_SETTINGS = [
     ({"stop_speed": 0.0}, "nmpc.stop_speed"),
     ({"solver": "fmincon"}, "nmpc.solver"),
     ({"fallback_solver": "fmincon"}, "nmpc.fallback_solver"),
+    ({"relaxed_solver": "fmincon"}, "nmpc.relaxed_solver"),
+    ({"relaxed_solver": "fatrop_c"}, "nmpc.relaxed_solver"),  # structured: it cannot take a relaxed problem
     ({"transcription": "collocation"}, "nmpc.transcription"),
 ]
 

@@ -87,20 +87,51 @@ def test_every_route_reaches_the_reference_optimum(route, ocp, paper_problems, f
         np.testing.assert_allclose(first, tr.unpack(w_ref, problem.p)[1][0], atol=2e-4)
 
 
-@pytest.mark.parametrize("fallback", [None, "fatrop"])
-def test_a_structured_route_hands_the_free_steer_problem_to_a_general_one(fallback):
-    """The free-steer problem of a stage start relaxes X_0[steer] = p[steer]: fatrop cannot take that, so it
-    goes to a general route, even with no fallback."""
-    sc = builtin_scenarios()[2]
-    controller = make_nmpc(sc.vehicle, NMPCSettings(solver="fatrop_c", fallback_solver=fallback))
+def _free_steer(fallback: str | None, relaxed: str | None) -> tuple[float | None, object]:
     from hitchpark.model.plant import Measurement
     from hitchpark.model.state import Pose, State
 
+    settings = NMPCSettings(solver="fatrop_c", fallback_solver=fallback, relaxed_solver=relaxed)
+    controller = make_nmpc(VehicleTrailer(), settings)
     m = Measurement(0.0, State(6.0, 1.0, 0.3, 0.1), 0.0, 0.0)
     steer = controller.initial_steer(m, Pose())
-    assert controller._program.general is not None and controller._program.general is not controller.solver
-    assert steer is not None and abs(steer) <= sc.vehicle.max_steer
-    assert abs(steer) > 1e-3  # a start off the axis asks for the wheels turned
+    program = controller._program
+    general = program.relaxed if program.relaxed is not None else program.general
+    assert general is not None and general is not controller.solver
+    return steer, general
+
+
+@pytest.mark.parametrize(
+    ("fallback", "relaxed"), [(None, "sqp_c"), ("fatrop", "sqp_c"), ("fatrop", None), (None, "sqp")]
+)
+def test_a_structured_route_hands_the_free_steer_problem_to_a_general_one(fallback, relaxed):
+    """The free-steer problem of a stage start relaxes X_0[steer] = p[steer]: fatrop cannot take that, so it
+    goes to ``relaxed_solver`` (else a general fallback, else IPOPT), even with no fallback, and finds
+    IPOPT's steer."""
+    reference, ipopt = _free_steer(None, None)  # neither named: IPOPT
+    assert ipopt.name().endswith("ipopt")
+    assert reference is not None and abs(reference) <= VehicleTrailer().max_steer
+    assert abs(reference) > 1e-3  # a start off the axis asks for the wheels turned
+    steer, general = _free_steer(fallback, relaxed)
+    assert general.name().endswith(relaxed or "ipopt")  # a structured fallback cannot take it either
+    assert steer == pytest.approx(reference, abs=1e-6)
+
+
+@pytest.mark.parametrize("name", ["driveway", "bay"])
+def test_among_obstacles_the_relaxed_route_finds_ipopts_free_steer(name):
+    """A scene's stage start: the free-steer problem among the scene's lines (and the plan of open space its
+    cold start solves first) goes to ``relaxed_solver``, with IPOPT's steer."""
+    from hitchpark.model.plant import Measurement
+
+    sc = builtin_scenario(name)
+    steers = {}
+    for relaxed in ("sqp_c", None):
+        controller = make_nmpc(sc.vehicle, replace(sc.settings.nmpc, relaxed_solver=relaxed))
+        controller.keep_clear(sc.scene, 0.3)
+        m = Measurement(0.0, sc.start, 0.0, 0.0)
+        steers[relaxed] = controller.initial_steer(m, sc.goal)
+    assert steers[None] is not None and abs(steers[None]) > 1e-3
+    assert steers["sqp_c"] == pytest.approx(steers[None], abs=1e-6)
 
 
 def test_generated_c_is_the_same_solver_cached_and_leaves_nothing_behind(jit_cache, paper_problems, monkeypatch):

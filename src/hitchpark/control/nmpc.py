@@ -126,7 +126,9 @@ class FullNMPC(RecedingHorizon):
         lines = not scene.is_empty and self.settings.obstacle_planes > 0
         for tracking in (False, True):
             for with_lines in {False, lines}:
-                self._general_solver(self._program_for(tracking, with_lines))
+                program = self._program_for(tracking, with_lines)
+                self._general_solver(program)
+                self._relaxed_solver(program)
         self._program = self._program_for(self._reference is not None)
 
     def follow(self, reference: PathReference | None) -> None:
@@ -200,7 +202,7 @@ class FullNMPC(RecedingHorizon):
             return guess
         plain = self._program_for(tracking, lines=False)
         bounds = plain.transcription.bounds(u_min, u_max, free)
-        solver = self._general_solver(plain) if free else plain.solver
+        solver = self._relaxed_solver(plain) if free else plain.solver
         assert isinstance(plain.problem, FullParkingProblem)
         p = np.concatenate([x0, self._step_parameters(guess, x0, plain.problem)])
         ok, _, w, _ = self._solve(solver, p, guess, bounds)

@@ -139,6 +139,12 @@ class NMPCSettings:
     fallback_solver : str or None
         Solver tried when the first one fails; only if both fail, and a retry from a cold start fails
         too, does the step command a stop.
+    relaxed_solver : str or None
+        The route of the problems a structured ``solver`` cannot take: a stage's free-steer problem
+        (standing still, the wheels' angle freed, :meth:`.FullNMPC.initial_steer`). A general route (not
+        structured): ``"sqp_c"`` by default, a third to a half of IPOPT's time on these problems with
+        the same steer; the fallback follows it when it fails. None: the fallback solver (IPOPT if that
+        is structured too). Unused when ``solver`` is itself general.
     transcription : str
         ``"multiple_shooting"`` (states and inputs are unknowns) or ``"single_shooting"`` (inputs only;
         paper kind only).
@@ -169,6 +175,7 @@ class NMPCSettings:
     max_steps: int = 1500
     solver: str | None = None
     fallback_solver: str | None = "ipopt"
+    relaxed_solver: str | None = "sqp_c"
     transcription: str = "multiple_shooting"
     solver_options: dict[str, Any] = field(default_factory=dict, hash=False)
     obstacle_planes: int = 3
@@ -227,6 +234,14 @@ class NMPCSettings:
             raise InputError(
                 f"nmpc.fallback_solver {self.fallback_solver!r} needs nmpc.transcription 'multiple_shooting', "
                 "got 'single_shooting'"
+            )
+        if self.relaxed_solver is not None and (
+            self.relaxed_solver not in names or ROUTES[self.relaxed_solver].structured
+        ):
+            general = [name for name in names if not ROUTES[name].structured]
+            raise InputError(
+                f"nmpc.relaxed_solver must be a general route, one of {', '.join(general)} or none, "
+                f"got {self.relaxed_solver!r}"
             )
         put("jit", check_flag("nmpc.jit", defaults["jit"] if self.jit is None else self.jit))
         put("solver_options", _solver_options(self.solver_options))

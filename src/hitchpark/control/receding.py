@@ -100,7 +100,8 @@ class Program:
     solver: Any
     fallback: Any
     equality: list[bool]
-    general: Any = None  # a route for problems that relax an equality (built when first needed)
+    general: Any = None  # a general route beside a structured primary (built when first needed)
+    relaxed: Any = None  # the route of problems that relax an equality (built when first needed)
 
 
 def build_program(problem: OCP) -> Program:
@@ -208,11 +209,8 @@ class RecedingHorizon:
         return ok, status, w, cost
 
     def _general_solver(self, program: Program | None = None) -> Any:
-        """The primary route, or a general one if the primary needs every equality of the transcription kept.
-
-        A stage's free-steer problem (:meth:`FullNMPC.initial_steer`, once per stage, standing still) frees
-        the equality X_0[steer] = p[steer]; a structure-exploiting route such as fatrop cannot take that.
-        """
+        """The primary route, or a general one if the primary needs every equality of the transcription kept:
+        the fallback, else IPOPT (the cold start's rounds among obstacles build on its iterates)."""
         assert self.settings.solver is not None
         program = program or self._program
         if not ROUTES[self.settings.solver].structured:
@@ -225,6 +223,22 @@ class RecedingHorizon:
             if program.general is None:
                 program.general = make_solver(general, program.transcription.nlp, program.equality)
         return program.general
+
+    def _relaxed_solver(self, program: Program | None = None) -> Any:
+        """The route of a problem that relaxes an equality of the transcription.
+
+        A stage's free-steer problem (:meth:`FullNMPC.initial_steer`, once per stage, standing still) frees
+        the equality X_0[steer] = p[steer]; a structure-exploiting route such as fatrop cannot take that.
+        It goes to ``relaxed_solver``, else to :meth:`_general_solver`.
+        """
+        assert self.settings.solver is not None
+        program = program or self._program
+        name = self.settings.relaxed_solver
+        if not ROUTES[self.settings.solver].structured or name is None:
+            return self._general_solver(program)
+        if program.relaxed is None:
+            program.relaxed = make_solver(name, program.transcription.nlp, program.equality)
+        return program.relaxed
 
     def _fallback_structured(self) -> bool:
         fallback = self.settings.fallback_solver
@@ -240,7 +254,7 @@ class RecedingHorizon:
         """Primary solver, then the fallback, then a cold start; returns ok, status, states, inputs, cost, ms.
 
         ``free``: components of X_0 freed within bounds (:meth:`.Transcription.bounds`); such a problem
-        relaxes an equality of the transcription (see :meth:`_general_solver`).
+        relaxes an equality of the transcription (see :meth:`_relaxed_solver`).
         """
         t0 = time.perf_counter()
         relaxed = bool(free)
@@ -250,7 +264,7 @@ class RecedingHorizon:
         if cold:
             warm = self._cold_start(x0, warm, u_min, u_max, free)
         p = np.concatenate([x0, self._step_parameters(warm, x0)])
-        primary = self._general_solver() if relaxed else self.solver
+        primary = self._relaxed_solver() if relaxed else self.solver
         if self.recorder is not None and primary is self.solver:
             self.recorder.append(NLPProblem(*(np.array(a, dtype=float) for a in (p, warm, *bounds))))
         ok, status, w, cost = self._solve(primary, p, warm, bounds)
