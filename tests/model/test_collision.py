@@ -160,7 +160,9 @@ def test_heading_recorded_wrapped_turns_the_short_way():
     assert short == pytest.approx(clearance(V, far, *states[1]), abs=0.5)
 
 
-configs = st.tuples(st.floats(-20, 20), st.floats(-20, 20), st.floats(-math.pi, math.pi), st.floats(-1.2, 1.2))
+configs = st.tuples(
+    st.floats(-20, 20), st.floats(-20, 20), st.floats(-math.pi, math.pi), st.floats(-1.2, 1.2)
+)
 
 
 @given(configs)
