@@ -117,6 +117,13 @@ def test_a_structured_route_hands_the_free_steer_problem_to_a_general_one(fallba
     assert steer == pytest.approx(reference, abs=1e-6)
 
 
+def test_a_relaxed_route_that_is_the_fallback_is_the_fallback_solver_itself():
+    """Named twice, IPOPT is built once: on a failure the cascade does not solve the same problem again."""
+    settings = NMPCSettings(solver="fatrop_c", fallback_solver="ipopt", relaxed_solver="ipopt")
+    controller = make_nmpc(VehicleTrailer(), settings)
+    assert controller._relaxed_solver() is controller._program.fallback is not None
+
+
 @pytest.mark.parametrize("name", ["driveway", "bay"])
 def test_among_obstacles_the_relaxed_route_finds_ipopts_free_steer(name):
     """A scene's stage start: the free-steer problem among the scene's lines (and the plan of open space its

@@ -237,7 +237,10 @@ class RecedingHorizon:
         if not ROUTES[self.settings.solver].structured or name is None:
             return self._general_solver(program)
         if program.relaxed is None:
-            program.relaxed = make_solver(name, program.transcription.nlp, program.equality)
+            # The fallback's route: the same solver (the cascade then does not try it twice).
+            program.relaxed = program.fallback if name == self.settings.fallback_solver else None
+            if program.relaxed is None:
+                program.relaxed = make_solver(name, program.transcription.nlp, program.equality)
         return program.relaxed
 
     def _fallback_structured(self) -> bool:
