@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from hitchpark.app import bench as bench_module
-from hitchpark.app.bench import BENCH_OCPS, bench_table, run_bench
+from hitchpark.app.bench import BENCH_OCPS, OCPBench, RouteBench, bench_table, run_bench
 from hitchpark.app.realtime import WallClock, run_realtime
 from hitchpark.cli import EXIT_BAD_INPUT, main
 from hitchpark.maneuver import park
@@ -36,6 +36,7 @@ def test_bench_times_every_route_on_the_same_recorded_problems(paper_bench):
     assert bench.routes["ipopt"].speedup_vs_ipopt == 1.0
     assert bench.routes["ipopt"].max_move_diff == 0.0
     assert list(bench.horizon_scaling_ms) == ["10", "20"] and all(v > 0 for v in bench.horizon_scaling_ms.values())
+    assert bench.horizon_scaling_failures == {"10": 0, "20": 0}
 
 
 def test_bench_drives_the_paper_scenarios_with_each_route(paper_bench):
@@ -143,6 +144,7 @@ def test_cli_bench_writes_the_schema(tmp_path, capsys):
         "random",
     }
     assert paper["default"] == BENCH_OCPS["paper"].nmpc.solver and paper["horizon_scaling_ms"] == {}
+    assert paper["horizon_scaling_failures"] == {}
     assert "x ipopt" in capsys.readouterr().out
 
 
@@ -199,3 +201,11 @@ def test_cli_realtime_writes_ticks_and_refuses_bad_speed_up(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--speed-up" in err and err.count("\n") == 1
     assert not bad.exists()
+
+
+def test_the_table_names_the_failures_of_a_horizon():
+    route = RouteBench(1.0, 2.0, 3.0, 1.0, 0, 10, 1.0, 0.0)
+    bench = OCPBench({"ipopt": route}, "ipopt", {"10": 0.1, "80": 0.9}, 10, 1, {"10": 0, "80": 2})
+    table = bench_table({"paper": bench})
+    assert "N=10: 0.100, N=80: 0.900 (2 failed)" in table
+    assert bench.to_dict()["horizon_scaling_failures"] == {"10": 0, "80": 2}

@@ -153,12 +153,15 @@ class OCPBench:
     horizon_scaling_ms: dict[str, float]
     problems: int
     starts: int
+    #: Per horizon, the default route's calls that failed (that the fallback would have answered).
+    horizon_scaling_failures: dict[str, int] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "routes": {name: r.to_dict() for name, r in self.routes.items()},
             "default": self.default,
             "horizon_scaling_ms": dict(self.horizon_scaling_ms),
+            "horizon_scaling_failures": dict(self.horizon_scaling_failures),
             "problems": self.problems,
             "starts": self.starts,
         }
@@ -332,8 +335,10 @@ def bench_ocp(
         controller, recorded = record_problems(ocp, vehicle, starts[:4], horizon)
         horizon_jobs[str(horizon)] = (controller.solver, recorded, math.inf)
     progress(f"{ocp.name}: the default route at N = {', '.join(horizon_jobs)}, taking turns")
-    scaling = {key: float(np.median(wall)) for key, (wall, _, _) in time_interleaved(horizon_jobs).items()}
-    return OCPBench(results, default, scaling, len(problems), len(starts))
+    timed_horizons = time_interleaved(horizon_jobs)
+    scaling = {key: float(np.median(wall)) for key, (wall, _, _) in timed_horizons.items()}
+    failed = {key: sum(a is None for a in answers) for key, (_, _, answers) in timed_horizons.items()}
+    return OCPBench(results, default, scaling, len(problems), len(starts), failed)
 
 
 def run_bench(
@@ -380,7 +385,10 @@ def bench_table(results: dict[str, OCPBench]) -> str:
                 f"{ocp:<10}{name + mark:<11}{r.median_ms:>10.3f}{r.p99_ms:>10.3f}{r.max_ms:>10.3f}"
                 f"{r.cpu_median_ms:>8.3f}{r.failures:>7d}{r.speedup_vs_ipopt:>9.1f}{r.max_move_diff:>11.1e}{final:>22}{cut}"
             )
-        scaling = ", ".join(f"N={n}: {ms:.3f}" for n, ms in bench.horizon_scaling_ms.items())
+        scaling = ", ".join(
+            f"N={n}: {ms:.3f}" + (f" ({fails} failed)" if (fails := bench.horizon_scaling_failures.get(n, 0)) else "")
+            for n, ms in bench.horizon_scaling_ms.items()
+        )
         lines.append(f"{'':<10}default {bench.default} by horizon [ms]: {scaling}")
     lines.append("* the default route; x ipopt = IPOPT's median over the route's, same run")
     return "\n".join(lines)
