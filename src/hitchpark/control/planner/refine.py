@@ -36,7 +36,6 @@ from ...model.scene import Scene
 from ...model.state import Pose, from_goal_frame, to_goal_frame
 from ...model.vehicle import VehicleTrailer
 from ..clearance import ClearanceConstraints
-from ..compiled import compiled_nlpsol
 from .settings import PATH_COLUMNS, Plan, PlannerSettings
 
 __all__ = ["REFINE_PLANES", "REFINE_STEPS", "refine_end", "refine_plan", "refine_solver"]
@@ -133,7 +132,7 @@ def refine_solver(
         "ipopt.tol": 1e-8,
         "ipopt.bound_relax_factor": 0.0,  # the steer, its rate and the hitch exactly within their limits
     }
-    solver = compiled_nlpsol("refine_end", "ipopt", nlp, options)
+    solver = ca.nlpsol("refine_end", "ipopt", nlp, options)
     inf = np.inf
     low_z = np.tile([-inf, -inf, -inf, -hitch_limit, -vehicle.max_steer], (n + 1, 1))
     high_z = -low_z
