@@ -12,8 +12,11 @@ from hitchpark.app import bench as bench_module
 from hitchpark.app.bench import BENCH_OCPS, OCPBench, RouteBench, bench_table, run_bench
 from hitchpark.app.realtime import WallClock, run_realtime
 from hitchpark.cli import EXIT_BAD_INPUT, main
+from hitchpark.control import NMPCSettings
+from hitchpark.control.nmpc import NLPProblem, make_nmpc
 from hitchpark.maneuver import park
 from hitchpark.maneuver.scenario import OBSTACLE_SUITE, builtin_scenario
+from hitchpark.model import VehicleTrailer
 
 ROUTE_KEYS = {"median_ms", "p99_ms", "max_ms", "cpu_median_ms", "failures", "speedup_vs_ipopt"}
 
@@ -209,3 +212,13 @@ def test_the_table_names_the_failures_of_a_horizon():
     table = bench_table({"paper": bench})
     assert "N=10: 0.100, N=80: 0.900 (2 failed)" in table
     assert bench.to_dict()["horizon_scaling_failures"] == {"10": 0, "80": 2}
+
+
+def test_a_horizon_is_timed_on_the_problems_of_the_ocp_its_solver_takes():
+    """A loop can pose problems of two OCPs (a tracking loop that fell back on the 3-stage process); only
+    those of the OCP the controller solves now go to its solver, at every horizon as in the routes' runs."""
+    controller = make_nmpc(VehicleTrailer(), NMPCSettings(kind="paper"))
+    n_p = controller.transcription.nlp["p"].numel()
+    own, other = (NLPProblem(*(np.zeros(n) for n in (k, 3, 3, 3, 1, 1))) for k in (n_p, n_p + 6))
+    kept = bench_module._own_problems(controller, [own, other, own])
+    assert len(kept) == 2 and all(problem is own for problem in kept)

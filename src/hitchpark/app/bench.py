@@ -193,6 +193,13 @@ def record_problems(
     return controller, problems
 
 
+def _own_problems(controller: TrailerNMPC | FullNMPC, problems: Sequence[NLPProblem]) -> list[NLPProblem]:
+    """The problems of the OCP ``controller`` solves now (the one its solver takes): not those of a tracking
+    loop that fell back on the 3-stage process parked at the goal, whose parameters differ."""
+    n_p = controller.transcription.nlp["p"].numel()
+    return [problem for problem in problems if len(problem.p) == n_p]
+
+
 @dataclass
 class _Timing:
     """One solver's calls on its problems: wall and CPU seconds and answers, in the problems' order."""
@@ -291,9 +298,7 @@ def bench_ocp(
     progress(f"{ocp.name}: recording the default controller on {len(starts)} closed-loop starts")
     recorder, problems = record_problems(ocp, vehicle, starts)
     tr = recorder.transcription  # it lays out the problems
-    n_p = tr.nlp["p"].numel()
-    # Only the problems of this OCP: a tracking loop that fell back on the 3-stage process parked at the goal.
-    problems = [problem for problem in problems if len(problem.p) == n_p]
+    problems = _own_problems(recorder, problems)
     equality = list(tr.lbg == tr.ubg)
     jobs = {}
     for name in dict.fromkeys(["ipopt", *routes]):
@@ -333,7 +338,7 @@ def bench_ocp(
     for horizon in horizons:
         progress(f"{ocp.name}: recording the default route ({default}) at N = {horizon}")
         controller, recorded = record_problems(ocp, vehicle, starts[:4], horizon)
-        horizon_jobs[str(horizon)] = (controller.solver, recorded, math.inf)
+        horizon_jobs[str(horizon)] = (controller.solver, _own_problems(controller, recorded), math.inf)
     progress(f"{ocp.name}: the default route at N = {', '.join(horizon_jobs)}, taking turns")
     timed_horizons = time_interleaved(horizon_jobs)
     scaling = {key: float(np.median(wall)) for key, (wall, _, _) in timed_horizons.items()}
