@@ -4,13 +4,14 @@
 
 For each horizon N, records the problems the default controller of ``OCP`` (``paper``, ``full``,
 ``obstacles`` or ``tracking``, as ``hitchpark bench`` names them) poses from the first 4 of bench's
-closed-loop starts, solves each with the in-process ``fatrop`` route (the default ``fatrop_c`` is the same
-solver generated to C, which reports no iteration count) and prints the iterations (median, mean, p90,
-max, failures), the generated route's median time per call and per iteration (as the controller builds it:
-the NLP's functions stage by stage, :mod:`hitchpark.control.stagewise`), and what each of CasADi's
-whole-horizon NLP functions costs per call inside the solver (the in-process route with its functions
-compiled, CasADi's own timings): the Lagrangian's Hessian and the constraints' Jacobian are evaluated once
-an iteration.
+closed-loop starts, solves each with the in-process ``fatrop`` route (fatrop's own start; the default
+``fatrop_c`` is the same solver generated to C) and prints the iterations (median, mean, p90, max,
+failures); then the generated route's own iterations, from the multipliers the controller started each
+problem from (its warm start, :mod:`hitchpark.control.generated`) and from fatrop's own start; its
+median time per call and per iteration (as the controller builds it: the NLP's functions stage by stage,
+:mod:`hitchpark.control.stagewise`), and what each of CasADi's whole-horizon NLP functions costs per call
+inside the solver (the in-process route with its functions compiled, CasADi's own timings): the
+Lagrangian's Hessian and the constraints' Jacobian are evaluated once an iteration.
 
 ``--set KEY=VALUE`` puts a solver option on top of the route's (``--set fatrop.mu_init=1e-8``), for the
 iterations and the timed route alike; the problems are the same (recorded with the default). A
@@ -62,7 +63,13 @@ def main() -> None:
         with quiet_stderr():
             solver = compiled_nlpsol(f"fatrop_iterations_{n}", plugin, tr.nlp, {**options, **overrides})
             timed = make_solver(
-                str(ocp.nmpc.solver), tr.nlp, equality, overrides, jit=bool(ocp.nmpc.jit), transcription=tr
+                str(ocp.nmpc.solver),
+                tr.nlp,
+                equality,
+                overrides,
+                jit=bool(ocp.nmpc.jit),
+                transcription=tr,
+                dual_floor=controller.settings.dual_floor,
             )
         iterations, failures = [], 0
         spent: dict[str, float] = dict.fromkeys(FUNCTIONS, 0.0)
@@ -75,6 +82,15 @@ def main() -> None:
             for name in FUNCTIONS:
                 spent[name] += stats.get(f"t_wall_{name}", 0.0)
                 calls[name] += stats.get(f"n_call_{name}", 0)
+        # The timed route's own count where it reports one (fatrop_c with its warm start of the multipliers):
+        # from the multipliers the controller started each problem from, and from fatrop's own start.
+        own: dict[str, list[int]] = {"the controller's multipliers": [], "fatrop's own start": []}
+        for problem in problems:
+            for label, given in zip(own, (problem.inputs(duals=True), problem.inputs())):
+                timed(**given)
+                count = timed.stats().get("iter_count")
+                if count is not None:
+                    own[label].append(int(count))
         its = np.array(iterations)
         ms = float(np.median(_time_route(timed, problems)[0]))
         print(
@@ -82,6 +98,12 @@ def main() -> None:
             f"p90 {np.percentile(its, 90):g}, max {its.max()}, failures {failures}; {ocp.nmpc.solver} "
             f"{ms:.3f} ms a call, {ms / np.median(its):.4f} ms an iteration"
         )
+        for label, counts in own.items():
+            if counts:
+                print(
+                    f"        {ocp.nmpc.solver} iterations from {label}: mean {np.mean(counts):.2f}, p90 "
+                    f"{np.percentile(counts, 90):g}, max {max(counts)}"
+                )
         per_call = ", ".join(f"{name} {1e6 * spent[name] / max(calls[name], 1):.2f}" for name in FUNCTIONS)
         print(f"        the NLP's functions in the solver [us a call]: {per_call}")
 

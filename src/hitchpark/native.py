@@ -45,6 +45,7 @@ __all__ = [
     "lock_file",
     "native",
     "resolved_compiler",
+    "resolved_cxx_compiler",
 ]
 
 #: Measured on the full OCP: -O1 compiles in ~4.5 s and runs as fast as -O2 (~8 s); -O0 runs 1.5x slower.
@@ -60,6 +61,11 @@ _INT = ctypes.c_longlong  # casadi_int in the generated code
 def resolved_compiler() -> str | None:
     """The C compiler to use (``$CC``, else ``gcc``) as a path, or None if there is none."""
     return _which(os.environ.get("CC", "gcc"))
+
+
+def resolved_cxx_compiler() -> str | None:
+    """The C++ compiler to use (``$CXX``, else ``g++``) as a path, or None if there is none."""
+    return _which(os.environ.get("CXX", "g++"))
 
 
 @functools.lru_cache(maxsize=16)
@@ -154,12 +160,15 @@ def build_library(
     library: Path,
     extra: Sequence[Any] = (),
     edit: Callable[[str], str | None] | None = None,
+    cxx: Path | None = None,
 ) -> bool:
     """Generate the C of a CasADi ``function`` and compile it into ``library`` (atomically); False if refused.
 
-    ``links``: libraries of CasADi's package the code calls into (a solver's, say). ``extra``: more CasADi
-    functions compiled into the same library (their own C file), which ``edit`` links in: it rewrites the
-    C of ``function`` to call them, or returns None, and then the library is built without them.
+    ``links``: libraries of CasADi's package the code calls into (a solver's, say). ``edit`` rewrites the C
+    of ``function``, or returns None, and then the library is built from it unedited and without ``extra``:
+    more CasADi functions compiled into the same library (their own C file), which the edit links in.
+    ``cxx``: a C++ source compiled (C++17, against CasADi's headers) and linked into the library, its
+    definitions binding the library's own calls (``-Bsymbolic``); False if it does not compile.
     """
     casadi_home = _casadi_home()
     with tempfile.TemporaryDirectory(dir=home) as scratch:
@@ -169,19 +178,30 @@ def build_library(
         try:
             os.chdir(scratch)  # CasADi writes the files into the working folder
             function.generate(source.name, {"main": False, "with_header": False})
-            if extra and edit is not None:
-                edited = edit(source.read_text())
-                if edited is not None:
+            edited = edit(source.read_text()) if edit is not None else None
+            if edited is not None:
+                source.write_text(edited)
+                if extra:
                     more = ca.CodeGenerator(f"{library.stem}_more.c", {"main": False, "with_header": False})
                     for f in extra:
                         more.add(f)
                     more.generate()
-                    source.write_text(edited)
                     sources.append(Path(scratch) / f"{library.stem}_more.c")
         except RuntimeError:
             return False
         finally:
             os.chdir(here)
+        objects: list[str] = []
+        if cxx is not None:
+            cxx_compiler = resolved_cxx_compiler()
+            if cxx_compiler is None:
+                return False
+            obj = Path(scratch) / f"{cxx.stem}.o"
+            flags = [*FLAGS, "-std=c++17", "-fPIC", "-c", str(cxx), f"-I{casadi_home / 'include'}", "-o", str(obj)]
+            done = subprocess.run([cxx_compiler, *flags], capture_output=True, text=True, check=False)
+            if done.returncode != 0 or not obj.is_file():
+                return False
+            objects = [str(obj), "-lstdc++", "-Wl,-Bsymbolic"]
         built = Path(scratch) / library.name
         command = [
             compiler,
@@ -190,6 +210,7 @@ def build_library(
             "-fPIC",
             "-shared",
             *map(str, sources),
+            *objects,
             f"-I{casadi_home / 'include'}",
             f"-L{casadi_home}",
             f"-Wl,-rpath,{casadi_home}",
@@ -212,18 +233,19 @@ class LibraryCall:
     """
 
     def __init__(self, library: Path, name: str, in_sizes: Sequence[int], out_sizes: Sequence[int]):
-        self._lib = ctypes.CDLL(str(library))
-        self._call = getattr(self._lib, name)
+        #: The loaded library (its other exported functions, if any, are reached through it).
+        self.library = ctypes.CDLL(str(library))
+        self._call = getattr(self.library, name)
         self._call.restype = ctypes.c_int
         sizes = [_INT() for _ in range(4)]
-        getattr(self._lib, f"{name}_work")(*[ctypes.byref(s) for s in sizes])
+        getattr(self.library, f"{name}_work")(*[ctypes.byref(s) for s in sizes])
         n_arg, n_res, n_iw, n_w = (s.value for s in sizes)
-        checkout = getattr(self._lib, f"{name}_checkout")
+        checkout = getattr(self.library, f"{name}_checkout")
         checkout.restype = ctypes.c_int
         self._mem = checkout()
         if self._mem < 0:
             raise OSError(f"all {MAX_INSTANCES} memories of {library.name} are in use")
-        weakref.finalize(self, getattr(self._lib, f"{name}_release"), self._mem)
+        weakref.finalize(self, getattr(self.library, f"{name}_release"), self._mem)
         self.inputs = [np.zeros(n) for n in in_sizes]
         self.outputs = [np.zeros(n) for n in out_sizes]
         self._arg = (_REAL * n_arg)(*[a.ctypes.data_as(_REAL) for a in self.inputs])  # the rest: NULL

@@ -79,7 +79,7 @@ class _Problem:
     def __init__(self, value: float):
         self.value = value
 
-    def inputs(self) -> dict:
+    def inputs(self, duals: bool = False) -> dict:
         return {"x0": self.value}
 
 
@@ -116,6 +116,32 @@ def test_timed_jobs_take_turns_each_solving_its_problems_in_order_once():
     wall, cpu, answers = timed["b"]
     assert len(wall) == len(cpu) == len(answers) == len(b) and np.all(wall >= 0)
     assert [None if x is None else float(x[0]) for x in answers] == [100.0, 101.0, 102.0, 103.0, None]
+
+
+class _DualSolver(_Solver):
+    """A solver that starts from given multipliers (as a warm-start build of fatrop_c): logs what it got."""
+
+    warm_duals = True
+
+    def __call__(self, x0: float, lam_x0: float | None = None) -> dict:  # type: ignore[override]
+        self.log.append((self.name, x0, lam_x0))
+        return {"x": np.array([x0])}
+
+
+class _DualProblem(_Problem):
+    def inputs(self, duals: bool = False) -> dict:
+        return {"x0": self.value, **({"lam_x0": -self.value} if duals else {})}
+
+
+def test_timed_jobs_give_the_recorded_multipliers_only_to_a_solver_that_takes_them():
+    log: list = []
+    problems = [_DualProblem(float(i)) for i in range(3)]
+    bench_module.time_interleaved(
+        {"warm": (_DualSolver("warm", log), problems, float("inf")), "plain": (_Solver("plain", log), problems, 1e9)},
+        rounds=1,
+    )
+    assert [entry for entry in log if entry[0] == "warm"] == [("warm", float(i), -float(i)) for i in range(3)] * 2
+    assert [entry for entry in log if entry[0] == "plain"] == [("plain", float(i)) for i in range(3)] * 2
 
 
 def test_a_timed_job_stops_once_its_budget_is_spent_while_the_others_go_on():

@@ -27,7 +27,7 @@ import numpy as np
 from ..checks import InputError, check_int
 from ..control.nmpc import FullNMPC, NLPProblem, TrailerNMPC, make_nmpc
 from ..control.ocp import NMPCSettings
-from ..control.solvers import ROUTES, make_solver, quiet_stderr
+from ..control.solvers import ROUTES, make_solver, quiet_stderr, takes_duals
 from ..maneuver import ManeuverSettings, builtin_scenarios, park
 from ..maneuver.scenario import OBSTACLE_SUITE, builtin_scenario
 from ..maneuver.settings import ProcessSettings
@@ -215,17 +215,18 @@ class _Timing:
         """Load caches and libraries before timing."""
         start = time.perf_counter()
         for problem in self.problems[: min(20, len(self.problems))]:
-            self.solver(**problem.inputs())
+            self.solver(**problem.inputs(takes_duals(self.solver)))
             if time.perf_counter() - start > self.budget_s / 10:
                 break
 
     def run(self, problems: Sequence[NLPProblem]) -> None:
         """Time ``problems`` one call each, until ``budget_s`` seconds of calls are spent in all."""
         spent = sum(self.wall)
+        duals = takes_duals(self.solver)  # the multipliers the controller started from, as it gave them
         for problem in problems:
             if spent > self.budget_s:
                 return
-            inputs = problem.inputs()
+            inputs = problem.inputs(duals)
             t0, c0 = time.perf_counter(), time.process_time()
             answer = self.solver(**inputs)
             ok = bool(self.solver.stats()["success"])
@@ -304,7 +305,14 @@ def bench_ocp(
     for name in dict.fromkeys(["ipopt", *routes]):
         progress(f"{ocp.name}: building the {name} route")
         with quiet_stderr():
-            solver = make_solver(name, tr.nlp, equality, jit=bool(ocp.nmpc.jit), transcription=tr)
+            solver = make_solver(
+                name,
+                tr.nlp,
+                equality,
+                jit=bool(ocp.nmpc.jit),
+                transcription=tr,
+                dual_floor=recorder.settings.dual_floor,
+            )
         jobs[name] = (solver, problems, math.inf if name == "ipopt" else ROUTE_BUDGET_S)
     progress(f"{ocp.name}: {', '.join(jobs)} on {len(problems)} problems, taking turns")
     timed = time_interleaved(jobs)

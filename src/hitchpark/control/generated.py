@@ -15,6 +15,8 @@ answers to rounding, only slower.
 
 from __future__ import annotations
 
+import ctypes
+import hashlib
 import re
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -26,7 +28,7 @@ import numpy as np
 from ..native import LibraryCall, build_library, cache_key, load_cached, resolved_compiler
 from .compiled import compiled_nlpsol
 
-__all__ = ["GeneratedNLP", "generated_nlpsol"]
+__all__ = ["WARM_SOURCE", "GeneratedNLP", "generated_nlpsol"]
 
 #: Libraries the generated code of a plugin calls into (they ship inside CasADi's Python package).
 _LINKED = {"fatrop": ("fatrop", "blasfeo"), "sqpmethod": ()}
@@ -37,15 +39,33 @@ class GeneratedNLP:
 
     Returns ``{"x", "f", "g", "lam_x", "lam_g"}`` (NumPy arrays, ``f`` a number); :meth:`stats` says whether
     the last call succeeded (the generated code returns nonzero when the solver did not converge).
+
+    A fatrop solver built with :data:`WARM_SOURCE` (:attr:`warm_duals`) starts from the multipliers
+    ``lam_x0`` and ``lam_g0`` when both are given (each bound's at least ``dual_floor``); fatrop's own
+    start otherwise, and always in any other build.
     """
 
     _INPUTS = ("x0", "p", "lbx", "ubx", "lbg", "ubg", "lam_x0", "lam_g0")
     _OUTPUTS = ("x", "f", "g", "lam_x", "lam_g")
 
-    def __init__(self, library: Path, name: str, n_x: int, n_p: int, n_g: int):
+    def __init__(self, library: Path, name: str, n_x: int, n_p: int, n_g: int, dual_floor: float = 1e-9):
         self._lib = LibraryCall(library, name, (n_x, n_p, n_x, n_x, n_g, n_g, n_x, n_g), (n_x, 1, n_g, n_x, n_g))
         self._code = 0
-        self._source = (library, name, n_x, n_p, n_g)
+        self._source = (library, name, n_x, n_p, n_g, dual_floor)
+        self.dual_floor = float(dual_floor)
+        self._set_warm = getattr(self._lib.library, "hitchpark_fatrop_set_warm", None)
+        self._iterations = getattr(self._lib.library, "hitchpark_fatrop_last_iterations", None)
+        if self._set_warm is not None:
+            self._set_warm.argtypes = (ctypes.c_int, ctypes.c_double)
+            self._set_warm.restype = None
+        if self._iterations is not None:
+            self._iterations.restype = ctypes.c_int
+        self._iter_count: int | None = None
+
+    @property
+    def warm_duals(self) -> bool:
+        """Whether this solver starts from given multipliers (a fatrop build with :data:`WARM_SOURCE`)."""
+        return self._set_warm is not None
 
     def __reduce__(self) -> tuple[Any, ...]:
         return (GeneratedNLP, self._source)  # another process loads the library anew
@@ -61,14 +81,66 @@ class GeneratedNLP:
                     buffer[:] = -np.inf if key in ("lbx", "lbg") else np.inf if key in ("ubx", "ubg") else 0.0
                 else:
                     buffer[:] = np.asarray(value, dtype=float).ravel()
+            if self._set_warm is not None:  # this thread's next solve, which follows under the lock
+                warm = inputs.get("lam_x0") is not None and inputs.get("lam_g0") is not None
+                self._set_warm(int(warm), self.dual_floor)
             self._code = self._lib.call()
+            self._iter_count = int(self._iterations()) if self._iterations is not None else None
             out: dict[str, Any] = {k: v.copy() for k, v in zip(self._OUTPUTS, self._lib.outputs, strict=True)}
         out["f"] = float(out["f"][0])  # a number, as CasADi's 1x1 answer converts to one
         return out
 
     def stats(self) -> dict[str, Any]:
+        """``success``, ``return_status`` and, from a build with :data:`WARM_SOURCE`, ``iter_count``."""
         ok = self._code == 0
-        return {"success": ok, "return_status": "Solve_Succeeded" if ok else f"not converged (code {self._code})"}
+        out: dict[str, Any] = {
+            "success": ok,
+            "return_status": "Solve_Succeeded" if ok else f"not converged (code {self._code})",
+        }
+        if self._iter_count is not None:
+            out["iter_count"] = self._iter_count
+        return out
+
+
+#: fatrop's C interface with a warm start of the multipliers, linked into generated fatrop solvers.
+WARM_SOURCE = Path(__file__).with_name("fatrop_warm.cpp")
+
+#: The generated fatrop solver's side of :data:`WARM_SOURCE`: the caller's multipliers (lam_x0 and lam_g0,
+#: which the generated code keeps in ``lam``) in fatrop's layout, as ``casadi_fatrop_solve`` reads fatrop's
+#: answer back, the other way.
+_WARM_DUALS = """
+int hitchpark_warm_duals(void* user_data, double* dual) {
+  struct casadi_fatrop_data* d = (struct casadi_fatrop_data*) user_data;
+  const struct casadi_fatrop_prob* p = d->prob;
+  const casadi_real* lam = d->nlp->lam;
+  const casadi_int nx = p->nlp->nx;
+  const struct FatropOcpCDims* str = fatrop_ocp_c_get_dims(d->solver);
+  casadi_int k, i, column;
+  for (k=0;k<str->K;++k) {
+    column = 0;
+    for (i=d->a_ineq_idx[k];i<d->a_ineq_idx[k+1];++i) dual[str->g_ineq_offs[k]+column++] = lam[nx+d->a_ineq[i]];
+    for (i=d->x_ineq_idx[k];i<d->x_ineq_idx[k+1];++i) dual[str->g_ineq_offs[k]+column++] = lam[d->x_ineq[i]];
+    column = 0;
+    for (i=d->a_eq_idx[k];i<d->a_eq_idx[k+1];++i) dual[str->g_offs[k]+column++] = lam[nx+d->a_eq[i]];
+    for (i=d->x_eq_idx[k];i<d->x_eq_idx[k+1];++i) dual[str->g_offs[k]+column++] = lam[d->x_eq[i]];
+  }
+  for (k=0;k<str->K-1;++k) {
+    casadi_scaled_copy(-1.0, lam+nx+p->AB[k].offset_r, p->nx[k+1], dual+str->dyn_eq_offs[k]);
+  }
+  return 0;
+}
+"""
+
+#: Where the generated C takes :data:`_WARM_DUALS` (after the solver's runtime, before its entry point).
+_ENTRY = "static int casadi_f0(const casadi_real** arg"
+
+
+def _link_warm_duals(source: str) -> str | None:
+    """The C of a generated fatrop solver with :data:`_WARM_DUALS`; None where it is not laid out so."""
+    needed = ("casadi_fatrop_solve(", "d_nlp->lam[p_nlp->nx+d->a_ineq[i]] = dual_data", "p->AB[k].offset_r")
+    if source.count(_ENTRY) != 1 or not all(n in source for n in needed):
+        return None
+    return source.replace(_ENTRY, _WARM_DUALS + "\n" + _ENTRY)
 
 
 #: A stage-wise function called by the generated solver: its own argument lists and work arrays (of the
@@ -122,10 +194,9 @@ def _link_stagewise(source: str, functions: Mapping[str, ca.Function]) -> str | 
             if len(found) != 1:
                 return None
             edited = edited.replace(f"p.{key}.eval = {found[0]};", f"p.{key}.eval = {name}_cb;")
-    anchor = "static int casadi_f0(const casadi_real** arg"
-    if edited.count(anchor) != 1:
+    if edited.count(_ENTRY) != 1:
         return None
-    return edited.replace(anchor, "".join(callbacks) + "\n" + anchor)
+    return edited.replace(_ENTRY, "".join(callbacks) + "\n" + _ENTRY)
 
 
 def generated_nlpsol(
@@ -134,37 +205,48 @@ def generated_nlpsol(
     nlp: Mapping[str, Any],
     options: Mapping[str, Any],
     stages: Callable[[ca.Function, str], Mapping[str, ca.Function] | None] | None = None,
+    dual_floor: float = 1e-9,
 ) -> Any:
     """The solver ``casadi.nlpsol(name, plugin, nlp, options)`` as compiled C, from the cache when it can.
 
     ``stages(solver, prefix)``: the NLP's functions stage by stage (:func:`.stagewise.stagewise_functions`
     of the transcription), which fatrop's generated code then calls in place of CasADi's: code the size of
-    a stage instead of the horizon's, the same numbers. Falls back to the in-process CasADi solver (the same
-    plugin and options) where nothing can be compiled.
+    a stage instead of the horizon's, the same numbers. A fatrop solver is linked with :data:`WARM_SOURCE`
+    where it compiles, and then starts from given multipliers, each bound's at least ``dual_floor``
+    (:class:`GeneratedNLP`). Falls back to the in-process CasADi solver (the same plugin and options)
+    where nothing can be compiled.
     """
     compiler = resolved_compiler()
     stagewise = stages is not None and plugin == "fatrop"
     if compiler is not None and plugin in _LINKED:
+        warm = plugin == "fatrop" and WARM_SOURCE.is_file()
 
         def build(compiler: str, home: Path, library: Path) -> bool:
             # error_on_fail: the generated function returns nonzero when the solver did not converge.
             solver = ca.nlpsol(name, plugin, dict(nlp), {**options, "error_on_fail": True})
             functions = stages(solver, f"{name}_stage_") if stages is not None and stagewise else None
-            if not functions:
-                return build_library(solver, _LINKED[plugin], compiler, home, library)
-            return build_library(
-                solver,
-                _LINKED[plugin],
-                compiler,
-                home,
-                library,
-                extra=list(functions.values()),
-                edit=lambda source: _link_stagewise(source, functions),
-            )
+
+            def edit(source: str) -> str | None:
+                if functions:
+                    linked = _link_stagewise(source, functions)
+                    if linked is None:
+                        return None
+                    source = linked
+                return (_link_warm_duals(source) or source) if warm else source
+
+            # fatrop with the warm start of its multipliers; if that does not build, fatrop as it comes.
+            for cxx in (WARM_SOURCE, None) if warm else (None,):
+                extra = list(functions.values()) if functions else []
+                if build_library(solver, _LINKED[plugin], compiler, home, library, extra, edit, cxx):
+                    return True
+            return False
 
         sizes = (int(nlp["x"].numel()), int(nlp["p"].numel()), int(nlp["g"].numel()))
-        key = cache_key(plugin, nlp, options, kind="generated-stagewise" if stagewise else "generated")
-        loaded = load_cached(name, key, build, lambda library: GeneratedNLP(library, name, *sizes))
+        kind = "generated-stagewise" if stagewise else "generated"
+        if warm:  # the source of the warm start shapes the library too
+            kind += "-warm-" + hashlib.sha256((WARM_SOURCE.read_text() + _WARM_DUALS).encode()).hexdigest()[:12]
+        key = cache_key(plugin, nlp, options, kind=kind)
+        loaded = load_cached(name, key, build, lambda library: GeneratedNLP(library, name, *sizes, dual_floor))
         if loaded is not None:
             return loaded
     # Nothing compiled (or every memory of the library in use): the in-process solver, its functions

@@ -78,6 +78,7 @@ KIND_DEFAULTS: dict[str, dict[str, Any]] = {
         "P": (1.0, 10.0, 10.0),
         "solver": "fatrop_c",
         "jit": False,
+        "dual_floor": 1.0,
     },
     # (x, y, yaw, hitch, steer, speed), (steer rate, acceleration); chosen by measured success (README).
     "full": {
@@ -85,6 +86,7 @@ KIND_DEFAULTS: dict[str, dict[str, Any]] = {
         "prediction_dt": 0.3,
         "solver": "fatrop_c",
         "jit": True,
+        "dual_floor": 1e-9,
         "Q": (1.0, 10.0, 10.0, 0.5, 0.01, 0.01),
         "R": (0.05, 0.05),
         "P": (10.0, 100.0, 100.0, 5.0, 0.1, 0.1),
@@ -150,6 +152,14 @@ class NMPCSettings:
         paper kind only).
     solver_options : dict
         Extra options passed to CasADi's ``nlpsol`` on top of the defaults (part of equality).
+    warm_duals : bool
+        Start the solver from the previous plan's multipliers, shifted by a step as its primal warm start
+        is (``fatrop_c``; fatrop as CasADi bundles it takes none, and the routes that take none ignore them).
+        False: each solve from the solver's own multipliers.
+    dual_floor : float or None
+        The least bound multiplier of that start (an interior point needs every one positive). None: the
+        kind's, measured on recorded problems (``README``, "Speed"): 1e-9 for the full kind, 1 for the
+        paper's, whose long horizons took more iterations with less.
     obstacle_planes : int
         Among obstacles the full NMPC keeps every body clear of the scene over its horizon: this many
         separating lines per body and prediction step, from the segments of the scene nearest to its warm
@@ -178,6 +188,8 @@ class NMPCSettings:
     relaxed_solver: str | None = "sqp_c"
     transcription: str = "multiple_shooting"
     solver_options: dict[str, Any] = field(default_factory=dict, hash=False)
+    warm_duals: bool = True
+    dual_floor: float | None = None
     obstacle_planes: int = 3
     jit: bool | None = None
 
@@ -245,6 +257,9 @@ class NMPCSettings:
             )
         put("jit", check_flag("nmpc.jit", defaults["jit"] if self.jit is None else self.jit))
         put("solver_options", _solver_options(self.solver_options))
+        put("warm_duals", check_flag("nmpc.warm_duals", self.warm_duals))
+        floor = defaults["dual_floor"] if self.dual_floor is None else self.dual_floor
+        put("dual_floor", check_range("nmpc.dual_floor", floor, 0.0, 1e3, low_open=True))
 
 
 class OCP(Protocol):

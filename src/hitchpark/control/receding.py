@@ -21,8 +21,8 @@ from ..model.plant import Command, Measurement
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer, check_vehicle
 from .ocp import OCP, NMPCSettings
-from .solvers import ROUTES, casadi_reason, make_solver
-from .transcription import make_transcription
+from .solvers import ROUTES, casadi_reason, make_solver, takes_duals
+from .transcription import make_transcription, shifted_rows
 
 __all__ = ["NLPProblem", "NMPCStep"]
 
@@ -32,7 +32,8 @@ class NLPProblem:
     """One NMPC solve as the controller posed it to its primary solver: replayable through any route.
 
     ``p`` is the initial state and the OCP's step parameters (the scene's lines), ``w0`` the warm start,
-    the rest the bounds of the decision vector and of the constraints, all in the transcription's layout.
+    the rest the bounds of the decision vector and of the constraints, all in the transcription's layout;
+    ``lam_x0`` and ``lam_g0`` the multipliers it started from (None: the solver's own start).
     """
 
     p: np.ndarray
@@ -41,10 +42,16 @@ class NLPProblem:
     ubx: np.ndarray
     lbg: np.ndarray
     ubg: np.ndarray
+    lam_x0: np.ndarray | None = None
+    lam_g0: np.ndarray | None = None
 
-    def inputs(self) -> dict[str, np.ndarray]:
-        """The keyword arguments of a CasADi ``nlpsol`` call."""
-        return {"x0": self.w0, "p": self.p, "lbx": self.lbx, "ubx": self.ubx, "lbg": self.lbg, "ubg": self.ubg}
+    def inputs(self, duals: bool = False) -> dict[str, np.ndarray]:
+        """The keyword arguments of a CasADi ``nlpsol`` call; with the multipliers if ``duals`` (and recorded):
+        for a solver that takes them (:func:`.solvers.takes_duals`)."""
+        out = {"x0": self.w0, "p": self.p, "lbx": self.lbx, "ubx": self.ubx, "lbg": self.lbg, "ubg": self.ubg}
+        if duals and self.lam_x0 is not None and self.lam_g0 is not None:
+            out.update(lam_x0=self.lam_x0, lam_g0=self.lam_g0)
+        return out
 
 
 @dataclass(frozen=True)
@@ -75,12 +82,6 @@ class NMPCStep:
         return Command(self.rear_speed, self.front_steer)
 
 
-def _shifted(rows: np.ndarray, part: float) -> np.ndarray:
-    """``rows`` (one per step) advanced by ``part`` of a step (0 < part <= 1), linearly, the last row held."""
-    ahead = np.vstack([rows[1:], rows[-1:]])
-    return ahead if part >= 1.0 else (1.0 - part) * rows + part * ahead
-
-
 def checked_settings(vehicle: Any, settings: Any, kind: str) -> NMPCSettings:
     """Check a controller's arguments; ``settings`` None: the ``kind``'s defaults."""
     check_vehicle(vehicle)
@@ -108,10 +109,16 @@ def build_program(problem: OCP) -> Program:
     s = problem.settings
     transcription = make_transcription(problem)
     equality = list(transcription.lbg == transcription.ubg)
-    assert s.solver is not None  # resolved per kind by NMPCSettings
+    assert s.solver is not None and s.dual_floor is not None  # resolved per kind by NMPCSettings
     try:
         solver = make_solver(
-            s.solver, transcription.nlp, equality, s.solver_options, jit=bool(s.jit), transcription=transcription
+            s.solver,
+            transcription.nlp,
+            equality,
+            s.solver_options,
+            jit=bool(s.jit),
+            transcription=transcription,
+            dual_floor=s.dual_floor,
         )
     except RuntimeError as exc:  # CasADi refuses an unknown or ill-typed option
         raise InputError(f"nmpc.solver_options are not accepted by {s.solver}: {casadi_reason(exc)}") from None
@@ -130,6 +137,8 @@ class RecedingHorizon:
         self._program = build_program(problem)
         self._last_inputs: np.ndarray | None = None
         self._last_states: np.ndarray | None = None
+        #: The multipliers (lam_x, lam_g) of the last solution, which the next warm start shifts (or None).
+        self._last_duals: tuple[np.ndarray, np.ndarray] | None = None
         self._last_steer = 0.0
         #: Set to a list to record every problem posed to the primary solver (``hitchpark bench``).
         self.recorder: list[NLPProblem] | None = None
@@ -175,6 +184,7 @@ class RecedingHorizon:
         """Forget the warm start (call at the start of each reverse stage)."""
         self._last_inputs = None
         self._last_states = None
+        self._last_duals = None
         self._last_steer = float(front_steer)
 
     def _cold_inputs(self) -> np.ndarray:
@@ -188,17 +198,34 @@ class RecedingHorizon:
             # equal, else the fraction dt / prediction_dt of one (interpolated), the last step repeated.
             assert self._last_states is not None and self.settings.prediction_dt is not None
             part = self.settings.dt / self.settings.prediction_dt
-            inputs = _shifted(self._last_inputs, part)
-            states = _shifted(self._last_states, part)
+            inputs = shifted_rows(self._last_inputs, part)
+            states = shifted_rows(self._last_states, part)
         inputs = np.clip(inputs, u_min, u_max)
         return self.transcription.guess(x0, inputs, states)
 
+    def _warm_duals(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The multipliers a primary solver that takes them starts from: the last solution's, shifted as the
+        primal warm start (:meth:`.Transcription.shift_duals`); None without one, or with ``warm_duals`` off."""
+        if not self.settings.warm_duals or self._last_duals is None or self._last_inputs is None:
+            return None
+        assert self.settings.prediction_dt is not None
+        part = self.settings.dt / self.settings.prediction_dt
+        return self.transcription.shift_duals(*self._last_duals, part)
+
     def _solve(
-        self, solver: Any, p: np.ndarray, w0: np.ndarray, bounds: tuple[np.ndarray, ...]
+        self,
+        solver: Any,
+        p: np.ndarray,
+        w0: np.ndarray,
+        bounds: tuple[np.ndarray, ...],
+        duals: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> tuple[bool, str, np.ndarray, float]:
+        """One solver's answer; a successful one's multipliers are kept for the next warm start."""
         lbx, ubx, lbg, ubg = bounds
+        start = {} if duals is None else {"lam_x0": duals[0], "lam_g0": duals[1]}
+        self._last_duals = None
         try:
-            sol = solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+            sol = solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **start)
             stats = solver.stats()
             ok, status = bool(stats.get("success", False)), str(stats.get("return_status", "unknown"))
             w, cost = np.asarray(sol["x"]).ravel(), float(sol["f"])
@@ -206,6 +233,10 @@ class RecedingHorizon:
             return False, f"solver error: {exc}".splitlines()[0], np.full(len(w0), np.nan), math.nan
         if ok and not (np.all(np.isfinite(w)) and math.isfinite(cost)):
             ok, status = False, "non-finite solution"
+        if ok:
+            lam_x, lam_g = np.asarray(sol["lam_x"], dtype=float).ravel(), np.asarray(sol["lam_g"], dtype=float).ravel()
+            if np.all(np.isfinite(lam_x)) and np.all(np.isfinite(lam_g)):
+                self._last_duals = (lam_x, lam_g)
         return ok, status, w, cost
 
     def _general_solver(self, program: Program | None = None) -> Any:
@@ -268,9 +299,11 @@ class RecedingHorizon:
             warm = self._cold_start(x0, warm, u_min, u_max, free)
         p = np.concatenate([x0, self._step_parameters(warm, x0)])
         primary = self._relaxed_solver() if relaxed else self.solver
+        duals = None if relaxed or cold or not takes_duals(primary) else self._warm_duals()
         if self.recorder is not None and primary is self.solver:
-            self.recorder.append(NLPProblem(*(np.array(a, dtype=float) for a in (p, warm, *bounds))))
-        ok, status, w, cost = self._solve(primary, p, warm, bounds)
+            arrays = (np.array(a, dtype=float) for a in (p, warm, *bounds))
+            self.recorder.append(NLPProblem(*arrays, *(duals or (None, None))))
+        ok, status, w, cost = self._solve(primary, p, warm, bounds, duals)
         # The fast primary solver can stall where the interior-point fallback does not (a structured
         # fallback cannot take a relaxed problem; the same solver again would answer the same).
         fallback = self.fallback

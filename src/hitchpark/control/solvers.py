@@ -32,6 +32,7 @@ __all__ = [
     "quiet_stderr",
     "register_solver",
     "solver_names",
+    "takes_duals",
 ]
 
 #: ``factory(equality) -> (CasADi plugin, default options)``; ``equality`` flags the constraints that
@@ -161,6 +162,14 @@ def quiet_stderr() -> Iterator[list[str]]:
                 sys.stderr.write(held[0])
 
 
+def takes_duals(solver: Any) -> bool:
+    """Whether ``solver`` starts from given multipliers to its gain: a generated fatrop solver built with its
+    warm start (:class:`.generated.GeneratedNLP`). CasADi's own solvers take ``lam_x0`` and ``lam_g0`` too,
+    but the in-process fatrop ignores them and sqpmethod, given fatrop's, failed on recorded problems: they
+    get none."""
+    return bool(getattr(solver, "warm_duals", False))
+
+
 def make_solver(
     name: str,
     nlp: Mapping[str, Any],
@@ -168,13 +177,16 @@ def make_solver(
     options: Mapping[str, Any] | None = None,
     jit: bool = False,
     transcription: Any = None,
+    dual_floor: float | None = None,
 ) -> Any:
     """A CasADi ``nlpsol`` of the registered solver ``name`` for ``nlp``, its defaults under ``options``.
 
     ``jit``: compile the NLP's functions to C and cache the solver on disk (:mod:`.compiled`). A generated
     route is compiled whole whatever ``jit`` says (:mod:`.generated`); given the ``transcription`` whose
     NLP ``nlp`` is, a generated structured route evaluates the NLP's functions stage by stage
-    (:mod:`.stagewise`).
+    (:mod:`.stagewise`). ``dual_floor``: the least bound multiplier of a generated fatrop solver started
+    from given multipliers (:class:`.generated.GeneratedNLP`; None: 1e-9, the full kind's); other routes
+    take no such start.
     """
     route = ROUTES[name]
     plugin, opts = route.factory(equality)
@@ -184,7 +196,14 @@ def make_solver(
             stages = None
             if transcription is not None and route.structured:
                 stages = functools.partial(stagewise_functions, transcription)
-            return generated_nlpsol(f"hitchpark_{name}", plugin, nlp, opts, stages=stages)
+            return generated_nlpsol(
+                f"hitchpark_{name}",
+                plugin,
+                nlp,
+                opts,
+                stages=stages,
+                dual_floor=1e-9 if dual_floor is None else dual_floor,
+            )
         if jit:
             return compiled_nlpsol(f"nmpc_{name}", plugin, nlp, opts)
         return ca.nlpsol(f"nmpc_{name}", plugin, dict(nlp), opts)

@@ -17,7 +17,7 @@ import numpy as np
 
 from .ocp import OCP
 
-__all__ = ["MultipleShooting", "SingleShooting", "Transcription", "make_transcription"]
+__all__ = ["MultipleShooting", "SingleShooting", "Transcription", "make_transcription", "shifted_rows"]
 
 
 class Transcription:
@@ -47,6 +47,11 @@ class Transcription:
     def unpack(self, w: np.ndarray, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Predicted states (N+1, 3) and inputs (N, 2) from a decision vector."""
         raise NotImplementedError
+
+    def shift_duals(self, lam_x: np.ndarray, lam_g: np.ndarray, part: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """A solution's multipliers ``lam_x``, ``lam_g`` moved on by ``part`` of a prediction step (0 < part
+        <= 1) as the primal warm start is: the next problem's start. None: this layout has none."""
+        return None
 
     def _path_constraints(self, xs: list[Any], us: list[Any]) -> tuple[list[Any], list[Any], list[Any]]:
         g, lb, ub = [], [], []
@@ -97,11 +102,19 @@ class MultipleShooting(Transcription):
         g: list[Any] = [xs[0] - x0]  # X_0 = p: the first nx constraints
         lbg, ubg = [np.zeros(nx)], [np.zeros(nx)]
 
+        # Where each stage's constraints lie in g: the rows of X_0 = p and of each gap X_{k+1} - f(X_k, U_k)
+        # (their multipliers are the costates of X_0 ... X_N), and the rows on each X_k, k >= 1.
+        at = nx
+        costates, step_rows = [np.arange(nx)], []
+
         def add(k: int) -> None:  # the rows on X_k (k >= 1), with their step's parameters
+            nonlocal at
             rows, lo, hi = problem.step_rows(xs[k], _step_params(problem, extra, k))
             g.extend(rows)
             lbg.append(np.array(lo, dtype=float))
             ubg.append(np.array(hi, dtype=float))
+            step_rows.append(np.arange(at, at + len(lo)))
+            at += len(lo)
 
         # fatrop's structure detection takes the rows on X_k after the dynamics of stage k (measured: after
         # those of stage k - 1 it finds twice the stages and refuses).
@@ -109,9 +122,15 @@ class MultipleShooting(Transcription):
             g.append(xs[k + 1] - problem.discrete_dynamics(xs[k], us[k]))  # Eq. (48)
             lbg.append(np.zeros(nx))
             ubg.append(np.zeros(nx))
+            costates.append(np.arange(at, at + nx))
+            at += nx
             if k > 0:
                 add(k)
         add(N)
+        self._costate_idx = np.array(costates)
+        # The same rows on every X_k (one OCP's step_rows), else none to shift.
+        same = len({len(r) for r in step_rows}) == 1 and len(step_rows[0]) > 0
+        self._row_idx = np.array(step_rows) if same else None
         pg, plb, pub = self._path_constraints(xs, us)
         self.nlp = {"x": ca.vertcat(*w), "p": p, "f": cost, "g": ca.vertcat(*g, *pg)}
         self.lbg = np.concatenate([*lbg, _flat(plb)])
@@ -166,6 +185,28 @@ class MultipleShooting(Transcription):
     def unpack(self, w: np.ndarray, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         w = np.asarray(w).ravel()
         return w[self._x_idx], w[self._u_idx]
+
+    def shift_duals(self, lam_x: np.ndarray, lam_g: np.ndarray, part: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """Each stage's multipliers take those of the next (a fraction ``part`` of the way there), the last
+        stage's held, as the states and inputs of the warm start do: the bounds' on X_k and U_k, the
+        costates, the rows on X_k. X_0 has no bounds (it is p); path constraints over the horizon keep theirs."""
+        lam_x = np.array(lam_x, dtype=float).ravel()
+        lam_g = np.array(lam_g, dtype=float).ravel()
+        if lam_x.size != self._n or lam_g.size != len(self.lbg):
+            return None
+        for idx in (self._x_idx, self._u_idx):
+            lam_x[idx] = shifted_rows(lam_x[idx], part)
+        lam_x[self._x_idx[0]] = 0.0
+        lam_g[self._costate_idx] = shifted_rows(lam_g[self._costate_idx], part)
+        if self._row_idx is not None:
+            lam_g[self._row_idx] = shifted_rows(lam_g[self._row_idx], part)
+        return lam_x, lam_g
+
+
+def shifted_rows(rows: np.ndarray, part: float) -> np.ndarray:
+    """``rows`` (one per step) moved on by ``part`` of a step (0 < part <= 1), linearly, the last row held."""
+    ahead = np.vstack([rows[1:], rows[-1:]])
+    return ahead if part >= 1.0 else (1.0 - part) * rows + part * ahead
 
 
 class SingleShooting(Transcription):
