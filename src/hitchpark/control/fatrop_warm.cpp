@@ -10,7 +10,8 @@
 // whose calls it then answers (-Wl,-Bsymbolic): the same algorithm, built by fatrop's own IpAlgBuilder, with
 // one part replaced, the initializer. It runs fatrop's initializer and then, when the caller asked for it
 // (hitchpark_fatrop_set_warm), sets the equality multipliers to the caller's and each bound multiplier to
-// the caller's multiplier of that bound, at least ``floor``. The caller's multipliers come from the
+// the caller's multiplier of that bound, at least ``floor`` (fatrop's initializer then skips its own
+// least-squares equality multipliers, a solve of the KKT system the caller's replace). The caller's multipliers come from the
 // generated C (hitchpark_warm_duals, in the layout fatrop reports its own in), from its lam_x0 and lam_g0.
 // Without that request a solve is fatrop's to the last bit.
 //
@@ -42,6 +43,7 @@
 
 #define private public
 #include "fatrop/fatrop.hpp"
+#include "fatrop/ip_algorithm/ip_eq_mult_initializer.hpp"
 #include "fatrop/ip_algorithm/ip_initializer.hpp"
 #include "fatrop/ocp/type.hpp"
 #define FATROP_OCP_SOLVER_IMPLEMENTATION
@@ -62,6 +64,15 @@ namespace
     thread_local double warm_floor = 1e-9;
     thread_local int last_iterations = 0;
 
+    // An equality multiplier initializer that leaves them as they are.
+    class NoEqMult : public fatrop::IpEqMultInitializerBase
+    {
+    public:
+        void initialize_eq_mult(bool) override {}
+        void register_options(fatrop::OptionRegistry &) override {}
+        void reset() override {}
+    };
+
     // fatrop's initializer, then the caller's multipliers where asked for.
     class WarmInitializer : public fatrop::IpInitializerBase
     {
@@ -74,17 +85,36 @@ namespace
 
         void initialize() override
         {
-            stock_->initialize();
             if (!warm_requested || hitchpark_warm_duals == nullptr)
-                return;
+                return stock_->initialize();
             auto &it = data_->current_iterate();
             const Index n_eq = it.dual_eq().m();
             duals_.assign(static_cast<size_t>(n_eq), 0.);
-            if (hitchpark_warm_duals(user_data_, duals_.data()) != 0)
-                return;
+            bool usable = hitchpark_warm_duals(user_data_, duals_.data()) == 0;
             for (double d : duals_)
-                if (!std::isfinite(d))
-                    return;  // keep fatrop's own start
+                usable = usable && std::isfinite(d);
+            if (!usable)
+                return stock_->initialize();  // fatrop's own start
+            // fatrop's initializer without its last part, the least-squares equality multipliers (a solve
+            // of the whole KKT system), which the caller's replace.
+            auto stock = std::dynamic_pointer_cast<fatrop::IpInitializer<OcpType>>(stock_);
+            if (stock)
+            {
+                auto least_squares = stock->eq_mult_initializer_;
+                stock->eq_mult_initializer_ = skip_;
+                try
+                {
+                    stock_->initialize();
+                }
+                catch (...)
+                {
+                    stock->eq_mult_initializer_ = least_squares;
+                    throw;
+                }
+                stock->eq_mult_initializer_ = least_squares;
+            }
+            else
+                stock_->initialize();
             fatrop::VecRealAllocated eq(n_eq);
             for (Index i = 0; i < n_eq; ++i)
                 eq(i) = duals_[static_cast<size_t>(i)];
@@ -112,6 +142,7 @@ namespace
         std::shared_ptr<fatrop::IpData<OcpType>> data_;
         void *user_data_;
         std::vector<double> duals_;
+        std::shared_ptr<fatrop::IpEqMultInitializerBase> skip_ = std::make_shared<NoEqMult>();
     };
 } // namespace
 

@@ -139,6 +139,8 @@ class MultipleShooting(Transcription):
         self._x_idx = np.array([[k * stride + i for i in range(nx)] for k in range(N + 1)])
         self._u_idx = np.array([[k * stride + nx + i for i in range(nu)] for k in range(N)])
         self._n = stride * N + nx
+        self._shift_x = _shift_map(self._x_idx, self._u_idx)
+        self._shift_g = _shift_map(self._costate_idx, self._row_idx)
         self._bounds: dict[
             tuple[tuple[float, ...], tuple[float, ...]], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
         ] = {}
@@ -194,18 +196,26 @@ class MultipleShooting(Transcription):
         lam_g = np.array(lam_g, dtype=float).ravel()
         if lam_x.size != self._n or lam_g.size != len(self.lbg):
             return None
-        for idx in (self._x_idx, self._u_idx):
-            lam_x[idx] = shifted_rows(lam_x[idx], part)
+        for lam, (moved, ahead) in ((lam_x, self._shift_x), (lam_g, self._shift_g)):
+            lam[moved] = lam[ahead] if part >= 1.0 else (1.0 - part) * lam[moved] + part * lam[ahead]
         lam_x[self._x_idx[0]] = 0.0
-        lam_g[self._costate_idx] = shifted_rows(lam_g[self._costate_idx], part)
-        if self._row_idx is not None:
-            lam_g[self._row_idx] = shifted_rows(lam_g[self._row_idx], part)
         return lam_x, lam_g
+
+
+def _shift_map(*blocks: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """The entries of blocks of indices (a row per stage) and, for each, the entry of the next stage it
+    takes the value of (the last stage's its own): what :meth:`MultipleShooting.shift_duals` moves."""
+    used = [b for b in blocks if b is not None]
+    moved = np.concatenate([b.ravel() for b in used])
+    ahead = np.concatenate([np.concatenate([b[1:], b[-1:]]).ravel() for b in used])
+    return moved, ahead
 
 
 def shifted_rows(rows: np.ndarray, part: float) -> np.ndarray:
     """``rows`` (one per step) moved on by ``part`` of a step (0 < part <= 1), linearly, the last row held."""
-    ahead = np.vstack([rows[1:], rows[-1:]])
+    ahead = np.empty_like(rows)
+    ahead[:-1] = rows[1:]
+    ahead[-1] = rows[-1]
     return ahead if part >= 1.0 else (1.0 - part) * rows + part * ahead
 
 
