@@ -84,6 +84,29 @@ def test_fatrop_started_from_its_own_optimum_and_multipliers_ends_there_in_fewer
     assert sum(warm) < sum(plain)
 
 
+def test_the_shifted_multipliers_reach_the_optimum_of_fatrops_own_start_and_non_finite_ones_are_ignored(jit_cache):
+    """On the problems a closed loop posed (each with the last plan's multipliers, shifted): the same optimum
+    as from fatrop's own start (whose least-squares equality multipliers the caller's replace). Multipliers
+    with a NaN are not used: that solve is fatrop's own, to the iteration and the last bit."""
+    controller, problems, _ = _recorded("full", 1)
+    tr = controller.transcription
+    solver = make_solver("fatrop_c", tr.nlp, list(tr.lbg == tr.ubg), transcription=tr)
+    started = [p for p in problems if p.lam_x0 is not None][::6]
+    assert len(started) >= 8
+    for problem in started:
+        own = solver(**problem.inputs())
+        own_stats = solver.stats()
+        warm = solver(**problem.inputs(duals=True))
+        assert own_stats["success"] and solver.stats()["success"]
+        assert warm["f"] == pytest.approx(own["f"], rel=1e-6, abs=1e-8)
+        np.testing.assert_allclose(warm["x"][tr._u_idx[0]], own["x"][tr._u_idx[0]], atol=1e-5)
+        broken = problem.lam_g0.copy()
+        broken[len(broken) // 2] = np.nan
+        ignored = solver(**problem.inputs(), lam_x0=problem.lam_x0, lam_g0=broken)
+        assert solver.stats()["iter_count"] == own_stats["iter_count"]
+        np.testing.assert_array_equal(ignored["x"], own["x"])
+
+
 def test_the_controller_passes_on_the_shifted_multipliers_and_parks_as_without(jit_cache):
     """Every problem after the first of a stage starts from the multipliers of the last plan, of the
     transcription's sizes; the maneuver ends where the one without them does."""
