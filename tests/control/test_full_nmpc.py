@@ -84,6 +84,29 @@ def test_solver_failure_commands_a_stop_with_the_steer_held():
     assert not u.ok and u.stop and u.rear_speed == 0.0 and math.isfinite(u.front_steer)
 
 
+def test_a_non_finite_warm_start_is_not_handed_to_the_solver_the_step_stops(monkeypatch):
+    """fatrop given a NaN start iterates without end; the controller stops instead, steer held, and
+    recovers once its starts are finite again."""
+    nmpc = FullNMPC(V, SETTINGS)
+    measurement = Measurement(0.0, STARTS[1], 0.2, -0.4)
+    good = nmpc.act(measurement, Pose())
+    assert good.ok
+    guess = nmpc._initial_guess
+
+    def broken(*args, **kwargs):
+        w = np.array(guess(*args, **kwargs), dtype=float)
+        w[len(w) // 2] = math.nan
+        return w
+
+    monkeypatch.setattr(nmpc, "_initial_guess", broken)
+    u = nmpc.act(measurement, Pose())
+    assert not u.ok and u.stop and u.rear_speed == 0.0
+    assert "non-finite solver input" in u.status
+    assert u.front_steer == good.front_steer  # held: no jump of the wheel
+    monkeypatch.undo()
+    assert nmpc.act(measurement, Pose()).ok
+
+
 def test_non_finite_or_jackknifed_measurements_are_refused(nmpc):
     with pytest.raises(InputError, match="x must be finite"):  # a non-finite state cannot even be made
         State(math.nan, 0.0, 0.0, 0.0)

@@ -220,10 +220,16 @@ class RecedingHorizon:
         bounds: tuple[np.ndarray, ...],
         duals: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> tuple[bool, str, np.ndarray, float]:
-        """One solver's answer; a successful one's multipliers are kept for the next warm start."""
+        """One solver's answer; a successful one's multipliers are kept for the next warm start.
+
+        A start or parameter that is not finite is not passed on: fatrop, given one, iterates without end
+        (measured: a NaN in either hangs its call), and no solver can answer it.
+        """
         lbx, ubx, lbg, ubg = bounds
         start = {} if duals is None else {"lam_x0": duals[0], "lam_g0": duals[1]}
         self._last_duals = None
+        if not (np.isfinite(w0).all() and np.isfinite(p).all()):
+            return False, "non-finite solver input (start or parameters)", np.full(len(w0), np.nan), math.nan
         try:
             sol = solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **start)
             stats = solver.stats()
