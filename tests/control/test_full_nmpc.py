@@ -99,12 +99,15 @@ def test_a_non_finite_warm_start_is_not_handed_to_the_solver_the_step_stops(monk
         return w
 
     monkeypatch.setattr(nmpc, "_initial_guess", broken)
+    nmpc.recorder = []
     u = nmpc.act(measurement, Pose())
     assert not u.ok and u.stop and u.rear_speed == 0.0
     assert "non-finite solver input" in u.status
     assert u.front_steer == good.front_steer  # held: no jump of the wheel
+    assert nmpc.recorder == []  # nor recorded for bench, which would replay it to fatrop
     monkeypatch.undo()
     assert nmpc.act(measurement, Pose()).ok
+    assert len(nmpc.recorder) == 1
 
 
 def test_non_finite_or_jackknifed_measurements_are_refused(nmpc):

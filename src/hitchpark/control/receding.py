@@ -228,7 +228,7 @@ class RecedingHorizon:
         lbx, ubx, lbg, ubg = bounds
         start = {} if duals is None else {"lam_x0": duals[0], "lam_g0": duals[1]}
         self._last_duals = None
-        if not (np.isfinite(w0).all() and np.isfinite(p).all()):
+        if not _finite(w0, p):
             return False, "non-finite solver input (start or parameters)", np.full(len(w0), np.nan), math.nan
         try:
             sol = solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **start)
@@ -306,7 +306,7 @@ class RecedingHorizon:
         p = np.concatenate([x0, self._step_parameters(warm, x0)])
         primary = self._relaxed_solver() if relaxed else self.solver
         duals = None if relaxed or cold or not takes_duals(primary) else self._warm_duals()
-        if self.recorder is not None and primary is self.solver:
+        if self.recorder is not None and primary is self.solver and _finite(warm, p):  # a problem a solver is given
             arrays = (np.array(a, dtype=float) for a in (p, warm, *bounds))
             self.recorder.append(NLPProblem(*arrays, *(duals or (None, None))))
         ok, status, w, cost = self._solve(primary, p, warm, bounds, duals)
@@ -345,3 +345,8 @@ class RecedingHorizon:
     def initial_steer(self, measurement: Measurement, goal: Pose) -> float | None:
         """The steer this controller would like to start a stage with (None: no preference)."""
         return None
+
+
+def _finite(w0: np.ndarray, p: np.ndarray) -> bool:
+    """Whether a start and parameters can be handed to a solver (see :meth:`RecedingHorizon._solve`)."""
+    return bool(np.isfinite(w0).all() and np.isfinite(p).all())
