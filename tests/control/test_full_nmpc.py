@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
+import casadi as ca
 import numpy as np
 import pytest
 
@@ -132,3 +133,78 @@ def test_settings_per_kind_and_solver_options_in_equality():
         NMPCSettings(solver="magic")
     with pytest.raises(InputError, match="not accepted by"):
         FullNMPC(V, NMPCSettings(solver_options={"no_such_option": 1}))
+
+
+# --- the prediction grid stays put in time: the first step shortens as the samples pass ------------------
+
+
+def test_the_first_prediction_step_lasts_the_nlps_last_parameter_and_weighs_its_part_of_a_step():
+    from hitchpark.control.full_ocp import FullParkingProblem
+    from hitchpark.control.transcription import MultipleShooting, SingleShooting
+
+    problem = FullParkingProblem(V, SETTINGS)
+    ms = MultipleShooting(problem)
+    nlp = ms.nlp
+    f_g = ca.Function("fg", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]])
+    x0 = np.array([3.0, 0.5, 0.1, 0.05, 0.02, -0.5])
+    u0 = np.array([0.1, 0.2])
+    n_p = nlp["p"].numel()
+    for h0 in (0.1, 0.2, 0.3):
+        x1 = np.asarray(problem.discrete_dynamics(ca.DM(x0), ca.DM(u0), h0)).ravel()
+        inputs = np.zeros((problem.horizon, 2))
+        inputs[0] = u0
+        states = np.zeros((problem.horizon + 1, 6))
+        states[0], states[1] = x0, x1
+        w = ms.guess(x0, inputs, states)
+        p = np.concatenate([x0, np.zeros(n_p - 7), [h0]])
+        g = np.asarray(f_g(w, p)[1]).ravel()
+        np.testing.assert_allclose(g[6:12], 0.0, atol=1e-14)  # the first gap closes over h0 exactly
+        assert abs(g[12:18]).max() > 1e-3  # (X_2 = 0 is not where X_1 goes: the gaps are really evaluated)
+    # All zero but U_0: the cost is the first stage's, h0 / 0.3 of a whole step's.
+    only_u0 = np.vstack([u0, np.zeros((problem.horizon - 1, 2))])
+    zero = ms.guess(np.zeros(6), only_u0, np.zeros((problem.horizon + 1, 6)))
+    first = [float(f_g(zero, np.concatenate([np.zeros(n_p - 1), [h]]))[0]) for h in (0.1, 0.3)]
+    assert first[0] == pytest.approx(first[1] / 3.0, rel=1e-12) and first[1] > 0.0
+    # Single shooting rolls its states out over the first step that p holds.
+    single = SingleShooting(FullParkingProblem(V, replace(SETTINGS, solver="ipopt", transcription="single_shooting")))
+    w = np.zeros(2 * problem.horizon)
+    w[:2] = u0
+    for h0 in (0.1, 0.3):
+        states, _ = single.unpack(w, np.concatenate([x0, [h0]]))
+        x1 = np.asarray(problem.discrete_dynamics(ca.DM(x0), ca.DM(u0), h0)).ravel()
+        np.testing.assert_allclose(states[1], x1, atol=1e-14)
+
+
+def test_the_prediction_grid_stays_put_while_the_samples_pass():
+    """With 0.1 s samples and 0.3 s prediction steps, the first step lasts 0.3, 0.2, 0.1, 0.3 ... s; the warm
+    start is the last plan itself (its first step shortened) or the plan moved on by exactly one step."""
+    from hitchpark.model.plant import Plant, PlantSettings
+
+    nmpc = FullNMPC(V, SETTINGS)
+    nmpc.recorder = []
+    plant = Plant(PlantSettings(), V, STARTS[0], SETTINGS.dt)
+    tr = nmpc.transcription
+    last, moved = None, {0: 0, 1: 0}
+    for _ in range(24):
+        step = nmpc.act(plant.sense(), Pose())
+        assert step.ok, step.status
+        problem = nmpc.recorder[-1]
+        h0 = problem.p[-1]
+        if last is None:
+            assert h0 == 0.3  # a new grid: a whole first step
+        else:
+            warm_states, warm_inputs = tr.unpack(problem.w0, problem.p)
+            lo, hi = tr.unpack(problem.lbx, problem.p)[1], tr.unpack(problem.ubx, problem.p)[1]
+            if last[0] > 0.15:  # the grid stays: the first step a sample shorter, the plan as it was
+                assert h0 == pytest.approx(last[0] - 0.1, abs=1e-12)
+                np.testing.assert_array_equal(warm_states[1:], last[1][1:])
+                np.testing.assert_array_equal(warm_inputs, np.clip(last[2], lo, hi))
+            else:  # the grid moves on by one whole step
+                assert h0 == pytest.approx(0.3, abs=1e-12)
+                np.testing.assert_array_equal(warm_states[1:-1], last[1][2:])
+                np.testing.assert_array_equal(warm_inputs[:-1], np.clip(last[2][1:], lo[:-1], hi[:-1]))
+            moved[int(last[0] < 0.15)] += 1
+        np.testing.assert_array_equal(warm_states[0] if last else problem.w0[:6], problem.p[:6])  # X_0 measured
+        last = (h0, step.predicted_states, step.predicted_inputs)
+        assert plant.apply(step.command) is not None
+    assert moved == {0: 16, 1: 7}  # 23 samples after the first: (stay, stay, move) ... stay, stay

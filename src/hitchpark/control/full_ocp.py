@@ -50,6 +50,8 @@ class FullParkingProblem:
     input_names = FULL_OCP_INPUT
     n_x = 6
     n_u = 2
+    #: The first prediction step's length is the NLP's last parameter (:class:`~.ocp.OCP`).
+    first_step = True
 
     def __init__(
         self,
@@ -80,8 +82,8 @@ class FullParkingProblem:
         pose_rates = full_rhs(self.vehicle, x[0:4], ca.vertcat(x[SPEED], x[STEER]))
         return ca.vertcat(pose_rates, u[0], u[1])
 
-    def discrete_dynamics(self, x: Any, u: Any, dt: float | None = None) -> Any:
-        """One RK4 step of ``dt`` (default: the prediction step), inputs held."""
+    def discrete_dynamics(self, x: Any, u: Any, dt: Any = None) -> Any:
+        """One RK4 step of ``dt`` [s] (a number or a CasADi symbol; default: the prediction step), inputs held."""
         step = self.settings.prediction_dt if dt is None else dt
         assert step is not None
         return rk4(lambda z: self.rhs(z, u), x, step, substeps=1)

@@ -103,6 +103,7 @@ class FullNMPC(RecedingHorizon):
         self._scene, self._clearance_m = Scene(), 0.0
         self._reference: PathReference | None = None
         self._references = np.zeros((0, 6))  # the reference of each prediction step, this step
+        self._first_now = float(self.settings.prediction_dt or self.settings.dt)  # this sample's first step [s]
         self._goal = Pose()
         x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
         # One controller sample of the model: for the commands in flight and for the first move of a plan.
@@ -166,18 +167,19 @@ class FullNMPC(RecedingHorizon):
         lines, n = ocp.clearance, ocp.horizon
         if lines is None:
             return np.zeros((n, 0))
-        states, _ = self.transcription.unpack(warm, x0)
+        states, _ = self.transcription.unpack(warm, x0)  # (single shooting: the first step a whole one)
         warm_started = self._last_inputs is not None  # the last plan moved on, not a cold guess
         return lines.parameters(self._goal, np.vstack([x0[None, :], states[1:]]), keep_warm=warm_started).reshape(n, -1)
 
     def _step_parameters(
         self, warm: np.ndarray, x0: np.ndarray, problem: FullParkingProblem | None = None
     ) -> np.ndarray:
-        """Each step's reference (tracking) and lines (among obstacles), for ``problem`` (default: now)."""
+        """Each step's reference (tracking) and lines (among obstacles), for ``problem`` (default: now), then
+        the first step's length (:meth:`_next_first_step`)."""
         ocp = problem if problem is not None else self.problem
         assert isinstance(ocp, FullParkingProblem)
         refs = self._references if ocp.tracking else np.zeros((ocp.horizon, 0))
-        return np.hstack([refs, self._lines(warm, x0, ocp)]).ravel()
+        return np.concatenate([np.hstack([refs, self._lines(warm, x0, ocp)]).ravel(), [self._first_now]])
 
     def _cold_start(
         self, x0: np.ndarray, guess: np.ndarray, u_min: np.ndarray, u_max: np.ndarray, free: Any
@@ -208,7 +210,7 @@ class FullNMPC(RecedingHorizon):
         ok, _, w, _ = self._solve(solver, p, guess, bounds)
         if not ok:
             w = guess
-        states = self.transcription.unpack(w, x0)[0]
+        states = self.transcription.unpack(w, p)[0]
         if ok and lines.least_slack(states, self._lines(w, x0).ravel()) >= 0.0:
             return w  # clear: it meets the lines drawn around it
         bounds = self.transcription.bounds(u_min, u_max, free)
@@ -227,7 +229,9 @@ class FullNMPC(RecedingHorizon):
         """The reference as a warm start: its states, and the rates that move the steer and speed to it."""
         assert self.settings.prediction_dt is not None
         states = np.vstack([x0[None, :], self._references])
-        rates = np.diff(states[:, 4:6], axis=0) / self.settings.prediction_dt
+        steps = np.full(len(self._references), self.settings.prediction_dt)
+        steps[0] = self._first_now
+        rates = np.diff(states[:, 4:6], axis=0) / steps[:, None]
         return self.transcription.guess(x0, np.clip(rates, u_min, u_max), states)
 
     def _cold_inputs(self) -> np.ndarray:
@@ -265,9 +269,11 @@ class FullNMPC(RecedingHorizon):
         return self._plan(x0)
 
     def _track(self, x0: np.ndarray) -> None:
-        """Tracking: the reference of each prediction step from ``x0``, whose yaw moves to its branch."""
+        """This sample's first prediction step (:meth:`_next_first_step`); tracking, the reference of each
+        prediction step from ``x0``, whose yaw moves to its branch."""
+        self._first_now = self._next_first_step()[0]
         if self._reference is not None:
-            self._references = self._reference.window(x0)
+            self._references = self._reference.window(x0, self._first_now)
             x0[2] = self._reference.branch(float(x0[2]))
 
     def initial_steer(self, measurement: Measurement, goal: Pose) -> float | None:
@@ -298,7 +304,7 @@ class FullNMPC(RecedingHorizon):
         if not (math.isfinite(steer) and math.isfinite(speed)):
             return self._stop("non-finite vehicle command", cost, solve_ms, states, inputs)
         stop = abs(speed) < self.settings.stop_speed and abs(x0[SPEED]) < self.settings.stop_speed
-        self._last_inputs, self._last_states = inputs, states
+        self._last_inputs, self._last_states, self._first_step = inputs, states, self._first_now
         if stop:
             speed = 0.0
         self._last_steer = steer

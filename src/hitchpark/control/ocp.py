@@ -110,7 +110,8 @@ class NMPCSettings:
     prediction_dt : float or None
         Step of the full OCP's prediction [s] (None: ``dt``); a few coarse steps see seconds ahead,
         where the hitch angle's response to the steer plays out. The command is the plan's first
-        ``dt`` (full kind).
+        ``dt`` (full kind). The grid of steps stays put in time as the samples pass, the first step
+        shortening by ``dt`` each (``RecedingHorizon._next_first_step``).
     horizon : int or None
         Prediction/control horizon N [steps]; None: the kind's default (10 for both).
     Q, P : tuple of floats or None
@@ -271,6 +272,11 @@ class OCP(Protocol):
     path_constraints: list[PathConstraint]
     #: Parameters of each prediction step k = 1..N beyond the initial state (the NLP's ``p`` is X_0, then these).
     n_p: int
+    #: Whether the first prediction step's length is a parameter, the NLP's last (``discrete_dynamics`` then
+    #: takes a step length): the prediction grid stays where it is in time while the controller's samples pass,
+    #: the first step shortening, instead of moving on a fraction of a step each sample
+    #: (:meth:`~.receding.RecedingHorizon.first_step`).
+    first_step: bool
 
     @property
     def horizon(self) -> int: ...
@@ -279,7 +285,9 @@ class OCP(Protocol):
         """Constraint rows ``(expressions, lower, upper)`` on X_k (k = 1..N) given that step's parameters."""
         ...
 
-    def discrete_dynamics(self, x: Any, u: Any) -> Any: ...
+    def discrete_dynamics(self, x: Any, u: Any, dt: Any = None) -> Any:
+        """X_{k+1} from X_k and U_k over ``dt`` [s] (None: the prediction step)."""
+        ...
 
     def stage_cost(self, x: Any, u: Any, params: Any = None) -> Any:
         """The cost of stage k; ``params``: step k's parameters (step 1's for k = 0, where X_0 is given)."""
@@ -310,6 +318,7 @@ class TrailerParkingProblem:
     n_x = 3
     n_u = 2
     n_p = 0
+    first_step = False  # its prediction step is the controller's sample (Eq. 48)
 
     def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings | None = None):
         vehicle.require_hitch_offset()
@@ -330,9 +339,9 @@ class TrailerParkingProblem:
         assert self.settings.horizon is not None  # resolved per kind by NMPCSettings
         return self.settings.horizon
 
-    def discrete_dynamics(self, x: Any, u: Any) -> Any:
-        """g(X_k, U_k) = X_k + d_t f(X_k, U_k): the Euler step of Eq. (48)."""
-        return x + self.settings.dt * trailer_rhs(self.vehicle, x, u)
+    def discrete_dynamics(self, x: Any, u: Any, dt: Any = None) -> Any:
+        """g(X_k, U_k) = X_k + d_t f(X_k, U_k): the Euler step of Eq. (48) (``dt`` None: d_t)."""
+        return x + (self.settings.dt if dt is None else dt) * trailer_rhs(self.vehicle, x, u)
 
     def stage_cost(self, x: Any, u: Any, params: Any = None) -> Any:
         """X_k^T Q X_k + U_k^T R U_k, Eq. (49)."""

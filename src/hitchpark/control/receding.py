@@ -140,6 +140,8 @@ class RecedingHorizon:
         #: The multipliers (lam_x, lam_g) of the last solution, which the next warm start shifts (or None).
         self._last_duals: tuple[np.ndarray, np.ndarray] | None = None
         self._last_steer = 0.0
+        #: The length of the last plan's first prediction step [s] (:meth:`_next_first_step`).
+        self._first_step = float(self.settings.prediction_dt or self.settings.dt)
         #: Set to a list to record every problem posed to the primary solver (``hitchpark bench``).
         self.recorder: list[NLPProblem] | None = None
 
@@ -190,14 +192,39 @@ class RecedingHorizon:
     def _cold_inputs(self) -> np.ndarray:
         raise NotImplementedError
 
+    def _next_first_step(self) -> tuple[float, float]:
+        """The next problem's first prediction step [s], and how far the last plan moves on to it (a part of
+        a prediction step: 1 a whole one, 0 none).
+
+        An OCP without ``first_step`` predicts in equal steps from each sample: its plan moves on by the
+        fraction ``dt / prediction_dt`` of a step (interpolated, :func:`.shifted_rows`). With one, the
+        prediction grid stays put in time: each sample shortens the first step by ``dt``, the plan's rows
+        unmoved, until less than a sample of it is left; then the grid moves on by a whole step, the first
+        one made that much longer. With a prediction step of three samples (the full kind's 0.3 s), the
+        first step lasts 0.3, 0.2, 0.1, 0.3, ... s and the warm start is the last plan itself, or moved on by
+        exactly one step. An interpolated start misses where the plan's inputs change within a step (where
+        it starts braking at the limit, say), and the longer the horizon the more such changes it holds: the
+        iterations, and the time, of a long horizon grew with it (README, "Speed", "Prediction grid").
+        """
+        s = self.settings
+        step = float(s.prediction_dt or s.dt)
+        if not self.problem.first_step:
+            return step, s.dt / step
+        if self._last_inputs is None:
+            return step, 1.0  # a new grid: no plan to move on
+        left = self._first_step - s.dt  # of the last plan's first step, after this sample
+        if left >= s.dt - 1e-9:
+            return left, 0.0
+        return left + step, 1.0
+
     def _initial_guess(self, x0: np.ndarray, u_min: np.ndarray, u_max: np.ndarray) -> np.ndarray:
         if self._last_inputs is None:
             inputs, states = self._cold_inputs(), None
         else:
-            # The previous solution moved on by one control sample: a whole prediction step when they are
-            # equal, else the fraction dt / prediction_dt of one (interpolated), the last step repeated.
-            assert self._last_states is not None and self.settings.prediction_dt is not None
-            part = self.settings.dt / self.settings.prediction_dt
+            # The previous solution moved on by one control sample (:meth:`_next_first_step`), the last step
+            # repeated.
+            assert self._last_states is not None
+            part = self._next_first_step()[1]
             inputs = shifted_rows(self._last_inputs, part)
             states = shifted_rows(self._last_states, part)
         inputs = np.clip(inputs, u_min, u_max)
@@ -208,9 +235,7 @@ class RecedingHorizon:
         primal warm start (:meth:`.Transcription.shift_duals`); None without one, or with ``warm_duals`` off."""
         if not self.settings.warm_duals or self._last_duals is None or self._last_inputs is None:
             return None
-        assert self.settings.prediction_dt is not None
-        part = self.settings.dt / self.settings.prediction_dt
-        return self.transcription.shift_duals(*self._last_duals, part)
+        return self.transcription.shift_duals(*self._last_duals, self._next_first_step()[1])
 
     def _solve(
         self,
@@ -324,7 +349,7 @@ class RecedingHorizon:
             p = np.concatenate([x0, self._step_parameters(guess, x0)])
             ok, status, w, cost = self._solve(fallback or primary, p, guess, bounds)
         solve_ms = 1e3 * (time.perf_counter() - t0)
-        states, inputs = self.transcription.unpack(w, x0)
+        states, inputs = self.transcription.unpack(w, p)
         return ok, status, states, inputs, cost, solve_ms
 
     def _stop(self, status: str, cost: float, solve_ms: float, states: np.ndarray, inputs: np.ndarray) -> NMPCStep:

@@ -115,16 +115,18 @@ class PathReference:
         here = float(np.interp(self.progress, self.s, self._columns[2]))
         return yaw + 2.0 * math.pi * round((here - yaw) / (2.0 * math.pi))
 
-    def window(self, x0: np.ndarray) -> np.ndarray:
+    def window(self, x0: np.ndarray, first: float | None = None) -> np.ndarray:
         """Reference states (N, 6) of prediction steps 1..N from the parking-frame state ``x0``.
 
         The closest point moves on first (:meth:`locate`); from it the reference advances at
-        :meth:`_speed` per step; past the goal it is the goal at rest.
+        :meth:`_speed` per step (the first step ``first`` s long, default ``dt`` as the others); past the
+        goal it is the goal at rest.
         """
         s = self.locate(float(x0[0]), float(x0[1]))
         ahead = np.empty(self.horizon)
         for k in range(self.horizon):
-            s = min(s + min(self.speed, math.sqrt(2.0 * self.brake * max(self.length - s, 0.0))) * self.dt, self.length)
+            dt = first if k == 0 and first is not None else self.dt
+            s = min(s + min(self.speed, math.sqrt(2.0 * self.brake * max(self.length - s, 0.0))) * dt, self.length)
             ahead[k] = s
         out = np.empty((self.horizon, 6))
         for i, column in enumerate(self._columns):

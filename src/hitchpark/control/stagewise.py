@@ -10,8 +10,10 @@ assembles the NLP's outputs: the code is the size of a stage whatever N. The exp
 transcription's own, so the numbers are the same; :func:`stagewise_functions` checks the outputs'
 sparsity and values against CasADi's functions of the solver before they are used.
 
-The layout is :class:`~.transcription.MultipleShooting`'s: ``w = [X_0, U_0, ..., X_N]``, ``p = [x0, P_1..P_N]``,
-``g = [X_0 - x0, (X_{k+1} - F(X_k, U_k), rows on X_k if k > 0) for k < N, rows on X_N]``. The Lagrangian
+The layout is :class:`~.transcription.MultipleShooting`'s: ``w = [X_0, U_0, ..., X_N]``, ``p = [x0, P_1..P_N]``
+(then the first step's length h0 for an OCP with ``first_step``: stage 0's functions take it, its dynamics
+over h0 and its cost weighed by it), ``g = [X_0 - x0, (X_{k+1} - F(X_k, U_k), rows on X_k if k > 0) for k < N,
+rows on X_N]``. The Lagrangian
 ``lam_f f + lam_g' g`` is a sum over stages whose only coupling is the linear ``X_{k+1}`` of each gap: its
 Hessian is block diagonal, one block per stage, and the Jacobian's columns of stage k hold only stage k's
 rows. So the nonzeros of both, column by column, are those of each stage's block one stage after another.
@@ -48,7 +50,7 @@ def stagewise_functions(transcription: Any, solver: ca.Function, prefix: str) ->
     the transcription is not multiple shooting, has path constraints (they may depend on k), or the
     functions do not give what CasADi's give at a random point (then the caller keeps CasADi's).
     """
-    from .transcription import MultipleShooting  # (the transcription module builds the NLP this mirrors)
+    from .transcription import MultipleShooting, first_step_weight  # (the module builds the NLP this mirrors)
 
     pr = transcription.problem
     if not isinstance(transcription, MultipleShooting) or pr.path_constraints:
@@ -68,9 +70,14 @@ def stagewise_functions(transcription: Any, solver: ca.Function, prefix: str) ->
     XU = ca.vertcat(X, U)
     F = pr.discrete_dynamics(X, U)  # Eq. (48)
     stage_cost, terminal_cost = pr.stage_cost(X, U, P), pr.terminal_cost(X, P)
+    # Stage 0 over the first step's length H where the OCP makes it a parameter (p's last), its cost weighed so.
+    H = ca.SX.sym("H")
+    h_in = [H] if pr.first_step else []
+    F0 = pr.discrete_dynamics(X, U, H) if pr.first_step else F
+    cost0 = first_step_weight(pr, H) * stage_cost if pr.first_step else stage_cost
     # Each stage's share of lam_f f + lam_g' g, without the X_{k+1} of its gap (linear: added below).
-    first = lam_f * stage_cost - ca.dot(lam_gap, F)  # stage 0: no rows on X_0 (it is given)
-    middle = first + ca.dot(lam_rows, rows)
+    initial = lam_f * cost0 - ca.dot(lam_gap, F0)  # stage 0: no rows on X_0 (it is given)
+    middle = lam_f * stage_cost - ca.dot(lam_gap, F) + ca.dot(lam_rows, rows)
     last = lam_f * terminal_cost + ca.dot(lam_rows, rows)
 
     def hessian(lagrangian: ca.SX, of: ca.SX, at: int) -> ca.SX:
@@ -80,20 +87,26 @@ def stagewise_functions(transcription: Any, solver: ca.Function, prefix: str) ->
         return ca.Function(f"{prefix}{name}", inputs, outputs)
 
     at_middle = stride * min(1, N - 1)  # a middle stage's block (stage 0's when N = 1: then unused)
-    hess_0 = fn("hess_0", [X, U, P, lam_f, lam_gap], [ca.gradient(first, XU), hessian(first, XU, 0)])
+    hess_0 = fn("hess_0", [X, U, P, lam_f, lam_gap, *h_in], [ca.gradient(initial, XU), hessian(initial, XU, 0)])
     hess_k = fn(
         "hess_k", [X, U, P, lam_f, lam_gap, lam_rows], [ca.gradient(middle, XU), hessian(middle, XU, at_middle)]
     )
     hess_n = fn("hess_n", [X, P, lam_f, lam_rows], [ca.gradient(last, X), hessian(last, X, N * stride)])
-    grad_0 = fn("grad_0", [X, U, P, lam_f, lam_gap], [ca.gradient(first, XU), ca.gradient(first, P)])
+    grad_0 = fn(
+        "grad_0",
+        [X, U, P, lam_f, lam_gap, *h_in],
+        [ca.gradient(initial, XU), ca.gradient(initial, P), *[ca.gradient(initial, h) for h in h_in]],
+    )
     grad_k = fn("grad_k", [X, U, P, lam_f, lam_gap, lam_rows], [ca.gradient(middle, XU), ca.gradient(middle, P)])
     grad_n = fn("grad_n", [X, P, lam_f, lam_rows], [ca.gradient(last, X), ca.gradient(last, P)])
     # The Jacobian's rows of stage k's columns, in g's order: the gap before (X_k), its own gap, its rows.
-    jac_0 = fn("jac_0", [X, U, P], [F, _nonzeros(ca.jacobian(ca.vertcat(X, -F), XU))])
+    jac_0 = fn("jac_0", [X, U, P, *h_in], [F0, _nonzeros(ca.jacobian(ca.vertcat(X, -F0), XU))])
     jac_k = fn("jac_k", [X, U, P], [F, rows, _nonzeros(ca.jacobian(ca.vertcat(X, -F, rows), XU))])
     jac_n = fn("jac_n", [X, P], [rows, _nonzeros(ca.jacobian(ca.vertcat(X, rows), X))])
+    g_0 = fn("g_0", [X, U, P, *h_in], [F0])
     g_k = fn("g_k", [X, U, P], [F, rows])
     g_n = fn("g_n", [X, P], [rows])
+    cost_0 = fn("cost_0", [X, U, P, *h_in], [cost0, ca.gradient(cost0, XU)])
     cost_k = fn("cost_k", [X, U, P], [stage_cost, ca.gradient(stage_cost, XU)])
     cost_n = fn("cost_n", [X, P], [terminal_cost, ca.gradient(terminal_cost, X)])
 
@@ -105,6 +118,8 @@ def stagewise_functions(transcription: Any, solver: ca.Function, prefix: str) ->
     us = [w[k * stride + nx : (k + 1) * stride] for k in range(N)]
     # Step k's parameters (step 1's for stage 0, as the transcription's cost takes them).
     ps = [p[nx + (max(k, 1) - 1) * n_p : nx + max(k, 1) * n_p] for k in range(N + 1)]
+    h_arg = [p[n_par - 1]] if pr.first_step else []  # the first step's length
+    grad_h: list[ca.MX] = []
     gap_at, rows_at, at = [], {}, nx  # where each gap's and each step's rows start in g
     for k in range(N):
         gap_at.append(at)
@@ -127,8 +142,8 @@ def stagewise_functions(transcription: Any, solver: ca.Function, prefix: str) ->
     for k in range(N):
         args: tuple[ca.MX, ...]
         if k == 0:
-            args = (xs[0], us[0], ps[0], lf, lam_gaps[0])
-            (gk, hk), (_, dp) = hess_0(*args), grad_0(*args)
+            args = (xs[0], us[0], ps[0], lf, lam_gaps[0], *h_arg)
+            (gk, hk), (_, dp, *grad_h) = hess_0(*args), grad_0(*args)
         else:
             args = (xs[k], us[k], ps[k], lf, lam_gaps[k], lam_row[k])
             (gk, hk), (_, dp) = hess_k(*args), grad_k(*args)
@@ -143,13 +158,13 @@ def stagewise_functions(transcription: Any, solver: ca.Function, prefix: str) ->
     grad_p[N] = dp_n if grad_p[N].numel() == 0 else grad_p[N] + dp_n
     grad_gamma_x = ca.vertcat(*grad_x)
     # x0 enters only X_0 - x0: its gradient is -lam_init.
-    grad_gamma_p = ca.vertcat(-lam_init, *grad_p[1:])
+    grad_gamma_p = ca.vertcat(-lam_init, *grad_p[1:], *grad_h)
 
     g_parts, jac_nz = [xs[0] - p[:nx]], []
     gaps, step_rows = [], {}
     for k in range(N):
         if k == 0:
-            fk, jk = jac_0(xs[0], us[0], ps[0])
+            fk, jk = jac_0(xs[0], us[0], ps[0], *h_arg)
         else:
             fk, rk, jk = jac_k(xs[k], us[k], ps[k])
             step_rows[k] = rk
@@ -165,16 +180,18 @@ def stagewise_functions(transcription: Any, solver: ca.Function, prefix: str) ->
 
     g_only = [xs[0] - p[:nx]]
     for k in range(N):
+        if k == 0:
+            g_only.append(xs[1] - g_0(xs[0], us[0], ps[0], *h_arg))
+            continue
         fk, rk = g_k(xs[k], us[k], ps[k])
         g_only.append(xs[k + 1] - fk)
-        if k > 0:
-            g_only.append(rk)
+        g_only.append(rk)
     g_only.append(g_n(xs[N], ps[N]))
     g_expr = ca.vertcat(*g_only)
 
     costs, cost_grads = [], []
     for k in range(N):
-        ck, dk = cost_k(xs[k], us[k], ps[k])
+        ck, dk = cost_0(xs[0], us[0], ps[0], *h_arg) if k == 0 else cost_k(xs[k], us[k], ps[k])
         costs.append(ck)
         cost_grads.append(dk)
     cn, dn = cost_n(xs[N], ps[N])

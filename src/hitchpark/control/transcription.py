@@ -2,7 +2,8 @@
 
 A transcription turns the OCP into CasADi's ``{x, p, f, g}`` with the initial
 state as the parameter ``p`` (followed by the OCP's ``n_p`` parameters of each
-prediction step k = 1..N, whose rows on X_k follow X_k's dynamics), and knows
+prediction step k = 1..N, whose rows on X_k follow X_k's dynamics, and, for an OCP with
+``first_step``, the length of the first prediction step), and knows
 how to lay out bounds, initial guesses and solutions. Eq. (51) is the single-shooting form (inputs only); multiple
 shooting keeps the states as unknowns tied by the dynamics as equality
 constraints, which is sparser and better conditioned over long horizons.
@@ -45,11 +46,13 @@ class Transcription:
         raise NotImplementedError
 
     def unpack(self, w: np.ndarray, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Predicted states (N+1, 3) and inputs (N, 2) from a decision vector."""
+        """Predicted states (N+1, n_x) and inputs (N, n_u) from a decision vector; ``x0``: the initial state or
+        the whole parameter vector p (single shooting rolls the states out from it, over the first step's
+        length that p holds)."""
         raise NotImplementedError
 
     def shift_duals(self, lam_x: np.ndarray, lam_g: np.ndarray, part: float) -> tuple[np.ndarray, np.ndarray] | None:
-        """A solution's multipliers ``lam_x``, ``lam_g`` moved on by ``part`` of a prediction step (0 < part
+        """A solution's multipliers ``lam_x``, ``lam_g`` moved on by ``part`` of a prediction step (0 <= part
         <= 1) as the primal warm start is: the next problem's start. None: this layout has none."""
         return None
 
@@ -69,12 +72,31 @@ def _step_params(problem: OCP, extra: Any, k: int) -> Any:
     return extra[(k - 1) * problem.n_p : k * problem.n_p]
 
 
-def _cost(problem: OCP, xs: list[Any], us: list[Any], extra: Any) -> Any:
+def _cost(problem: OCP, xs: list[Any], us: list[Any], extra: Any, h0: Any = None) -> Any:
     """Stage costs of k = 0..N-1 and the terminal cost, each with its step's parameters (X_0's stage, where
-    X_0 is given, with step 1's)."""
+    X_0 is given, with step 1's). ``h0``: the first step's length, whose stage weighs that part of a
+    prediction step (a stage's cost is that of a prediction step's time)."""
     N = len(us)
-    stages = sum(problem.stage_cost(xs[k], us[k], _step_params(problem, extra, max(k, 1))) for k in range(N))
-    return stages + problem.terminal_cost(xs[N], _step_params(problem, extra, N))
+    costs = [problem.stage_cost(xs[k], us[k], _step_params(problem, extra, max(k, 1))) for k in range(N)]
+    if h0 is not None:
+        costs[0] = first_step_weight(problem, h0) * costs[0]
+    return sum(costs) + problem.terminal_cost(xs[N], _step_params(problem, extra, N))
+
+
+def first_step_weight(problem: OCP, h0: Any) -> Any:
+    """The weight of the first stage's cost when its step lasts ``h0`` [s]: that part of a prediction step."""
+    assert problem.settings.prediction_dt is not None
+    return h0 / problem.settings.prediction_dt
+
+
+def _first_step(problem: OCP) -> Any:
+    """The symbol of the first step's length (the NLP's last parameter), or None (the OCP has none)."""
+    return ca.SX.sym("h0") if problem.first_step else None
+
+
+def _dynamics(problem: OCP, x: Any, u: Any, k: int, h0: Any) -> Any:
+    """X_{k+1} = g(X_k, U_k), Eq. (48): over the first step's length ``h0`` for k = 0 where given."""
+    return problem.discrete_dynamics(x, u, h0) if k == 0 and h0 is not None else problem.discrete_dynamics(x, u)
 
 
 def _flat(values: list[Any]) -> np.ndarray:
@@ -91,14 +113,15 @@ class MultipleShooting(Transcription):
         N, nx, nu = problem.horizon, problem.n_x, problem.n_u
         x0 = ca.SX.sym("x0", nx)
         extra = ca.SX.sym("P", problem.n_p * N)
-        p = ca.vertcat(x0, extra)
+        h0 = _first_step(problem)
+        p = ca.vertcat(x0, extra) if h0 is None else ca.vertcat(x0, extra, h0)
         xs = [ca.SX.sym(f"X{k}", nx) for k in range(N + 1)]
         us = [ca.SX.sym(f"U{k}", nu) for k in range(N)]
         w: list[Any] = []
         for k in range(N):
             w += [xs[k], us[k]]
         w.append(xs[N])
-        cost = _cost(problem, xs, us, extra)  # Eq. (49)
+        cost = _cost(problem, xs, us, extra, h0)  # Eq. (49)
         g: list[Any] = [xs[0] - x0]  # X_0 = p: the first nx constraints
         lbg, ubg = [np.zeros(nx)], [np.zeros(nx)]
 
@@ -119,7 +142,7 @@ class MultipleShooting(Transcription):
         # fatrop's structure detection takes the rows on X_k after the dynamics of stage k (measured: after
         # those of stage k - 1 it finds twice the stages and refuses).
         for k in range(N):
-            g.append(xs[k + 1] - problem.discrete_dynamics(xs[k], us[k]))  # Eq. (48)
+            g.append(xs[k + 1] - _dynamics(problem, xs[k], us[k], k, h0))  # Eq. (48)
             lbg.append(np.zeros(nx))
             ubg.append(np.zeros(nx))
             costates.append(np.arange(at, at + nx))
@@ -197,6 +220,8 @@ class MultipleShooting(Transcription):
         if lam_x.size != self._n or lam_g.size != len(self.lbg):
             return None
         for lam, (moved, ahead) in ((lam_x, self._shift_x), (lam_g, self._shift_g)):
+            if part <= 0.0:
+                break
             lam[moved] = lam[ahead] if part >= 1.0 else (1.0 - part) * lam[moved] + part * lam[ahead]
         lam_x[self._x_idx[0]] = 0.0
         return lam_x, lam_g
@@ -212,7 +237,9 @@ def _shift_map(*blocks: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
 
 
 def shifted_rows(rows: np.ndarray, part: float) -> np.ndarray:
-    """``rows`` (one per step) moved on by ``part`` of a step (0 < part <= 1), linearly, the last row held."""
+    """``rows`` (one per step) moved on by ``part`` of a step (0 <= part <= 1), linearly, the last row held."""
+    if part <= 0.0:
+        return np.array(rows, dtype=float)
     ahead = np.empty_like(rows)
     ahead[:-1] = rows[1:]
     ahead[-1] = rows[-1]
@@ -231,12 +258,13 @@ class SingleShooting(Transcription):
         N, nx, nu = problem.horizon, problem.n_x, problem.n_u
         x0 = ca.SX.sym("x0", nx)
         extra = ca.SX.sym("P", problem.n_p * N)
-        p = ca.vertcat(x0, extra)
+        h0 = _first_step(problem)
+        p = ca.vertcat(x0, extra) if h0 is None else ca.vertcat(x0, extra, h0)
         us = [ca.SX.sym(f"U{k}", nu) for k in range(N)]
         xs = [x0]
         for k in range(N):
-            xs.append(problem.discrete_dynamics(xs[k], us[k]))  # Eq. (48)
-        cost = _cost(problem, xs, us, extra)  # Eq. (51)
+            xs.append(_dynamics(problem, xs[k], us[k], k, h0))  # Eq. (48)
+        cost = _cost(problem, xs, us, extra, h0)  # Eq. (51)
         pg, plb, pub = self._path_constraints(xs, us)
         sg, slb, sub = [], [], []
         x_bounds = problem.state_bounds()
@@ -255,8 +283,9 @@ class SingleShooting(Transcription):
         self.nlp = {"x": w, "p": p, "f": cost, "g": ca.vertcat(*sg, *pg)}
         self.lbg = np.concatenate([np.array(slb, dtype=float), _flat(plb)])
         self.ubg = np.concatenate([np.array(sub, dtype=float), _flat(pub)])
-        self._rollout = ca.Function("rollout", [w, x0], [ca.horzcat(*xs).T])
-        self._N, self._nu = N, nu
+        first = [] if h0 is None else [h0]
+        self._rollout = ca.Function("rollout", [w, x0, *first], [ca.horzcat(*xs).T])
+        self._N, self._nu, self._nx, self._n_p = N, nu, nx, int(p.numel())
 
     def bounds(
         self, u_min: np.ndarray, u_max: np.ndarray, free_initial: dict[int, tuple[float, float]] | None = None
@@ -269,8 +298,12 @@ class SingleShooting(Transcription):
         return np.asarray(inputs, dtype=float).ravel()
 
     def unpack(self, w: np.ndarray, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        w = np.asarray(w).ravel()
-        return np.asarray(self._rollout(w, x0)), w.reshape(self._N, self._nu)
+        w, x0 = np.asarray(w).ravel(), np.asarray(x0, dtype=float).ravel()
+        first: list[float] = []
+        if self.problem.first_step:  # the first step's length: p's last entry, else a whole prediction step
+            whole = len(x0) == self._n_p
+            first = [float(x0[-1]) if whole else float(self.problem.settings.prediction_dt or 0.0)]
+        return np.asarray(self._rollout(w, x0[: self._nx], *first)), w.reshape(self._N, self._nu)
 
 
 def make_transcription(problem: OCP) -> Transcription:
