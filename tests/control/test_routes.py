@@ -48,7 +48,7 @@ def obstacle_problems():
     controller.recorder = []
     result = park(sc.vehicle, sc.start, sc.goal, sc.settings, controller=controller, plant=sc.plant, scene=sc.scene)
     assert result.success
-    lines = np.array([p.p[6:-1] for p in controller.recorder]).reshape(len(controller.recorder), -1, 3)  # (-1: h0)
+    lines = np.array([p.p[6:] for p in controller.recorder]).reshape(len(controller.recorder), -1, 3)
     assert np.any(lines[..., 2] != -1.0)  # the scene is near: some lines are in use
     return controller, controller.recorder[::10]
 

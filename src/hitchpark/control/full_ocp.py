@@ -50,8 +50,6 @@ class FullParkingProblem:
     input_names = FULL_OCP_INPUT
     n_x = 6
     n_u = 2
-    #: The first prediction step's length is the NLP's last parameter (:class:`~.ocp.OCP`).
-    first_step = True
 
     def __init__(
         self,
@@ -67,6 +65,10 @@ class FullParkingProblem:
         #: A step's parameters: its reference state when tracking, then its separating lines.
         self.n_ref = self.n_x if tracking else 0
         self.n_p = self.n_ref + (0 if clearance is None else clearance.n_params)
+        #: The first prediction step's length is the NLP's last parameter (:class:`~.ocp.OCP`): the grid stays
+        #: put in time. Not among obstacles: there the grid moved on a third of a step each sample took fewer
+        #: iterations (README, "Speed", "Prediction grid").
+        self.first_step = clearance is None
         self.path_constraints: list[Callable[[Any, Any, int], tuple[Any, Any, Any]]] = []
         self._Q = ca.diag(ca.DM(list(settings.Q or ())))
         self._R = ca.diag(ca.DM(list(settings.R or ())))

@@ -175,11 +175,12 @@ class FullNMPC(RecedingHorizon):
         self, warm: np.ndarray, x0: np.ndarray, problem: FullParkingProblem | None = None
     ) -> np.ndarray:
         """Each step's reference (tracking) and lines (among obstacles), for ``problem`` (default: now), then
-        the first step's length (:meth:`_next_first_step`)."""
+        the first step's length if the OCP takes it (:meth:`_next_first_step`)."""
         ocp = problem if problem is not None else self.problem
         assert isinstance(ocp, FullParkingProblem)
         refs = self._references if ocp.tracking else np.zeros((ocp.horizon, 0))
-        return np.concatenate([np.hstack([refs, self._lines(warm, x0, ocp)]).ravel(), [self._first_now]])
+        first = [self._first_now] if ocp.first_step else []
+        return np.concatenate([np.hstack([refs, self._lines(warm, x0, ocp)]).ravel(), first])
 
     def _cold_start(
         self, x0: np.ndarray, guess: np.ndarray, u_min: np.ndarray, u_max: np.ndarray, free: Any

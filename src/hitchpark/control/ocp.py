@@ -110,8 +110,8 @@ class NMPCSettings:
     prediction_dt : float or None
         Step of the full OCP's prediction [s] (None: ``dt``); a few coarse steps see seconds ahead,
         where the hitch angle's response to the steer plays out. The command is the plan's first
-        ``dt`` (full kind). The grid of steps stays put in time as the samples pass, the first step
-        shortening by ``dt`` each (``RecedingHorizon._next_first_step``).
+        ``dt`` (full kind). In open space the grid of steps stays put in time as the samples pass, the
+        first step shortening by ``dt`` each (``RecedingHorizon._next_first_step``).
     horizon : int or None
         Prediction/control horizon N [steps]; None: the kind's default (10 for both).
     Q, P : tuple of floats or None
