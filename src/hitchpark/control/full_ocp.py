@@ -66,7 +66,7 @@ class FullParkingProblem:
         self.n_ref = self.n_x if tracking else 0
         self.n_p = self.n_ref + (0 if clearance is None else clearance.n_params)
         #: The first prediction step's length is the NLP's last parameter (:class:`~.ocp.OCP`): the grid stays
-        #: put in time. Not among obstacles: there the grid moved on a third of a step each sample took fewer
+        #: put in time. Not among obstacles: there the grid moving on a third of a step each sample took fewer
         #: iterations (README, "Speed", "Prediction grid").
         self.first_step = clearance is None
         self.path_constraints: list[Callable[[Any, Any, int], tuple[Any, Any, Any]]] = []
