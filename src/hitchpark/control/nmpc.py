@@ -103,7 +103,7 @@ class FullNMPC(RecedingHorizon):
         self._scene, self._clearance_m = Scene(), 0.0
         self._reference: PathReference | None = None
         self._references = np.zeros((0, 6))  # the reference of each prediction step, this step
-        self._first_now = float(self.settings.prediction_dt or self.settings.dt)  # this sample's first step [s]
+        self._first_now = self.prediction_step  # this sample's first prediction step [s]
         self._goal = Pose()
         x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
         # One controller sample of the model: for the commands in flight and for the first move of a plan.

@@ -141,9 +141,14 @@ class RecedingHorizon:
         self._last_duals: tuple[np.ndarray, np.ndarray] | None = None
         self._last_steer = 0.0
         #: The length of the last plan's first prediction step [s] (:meth:`_next_first_step`).
-        self._first_step = float(self.settings.prediction_dt or self.settings.dt)
+        self._first_step = self.prediction_step
         #: Set to a list to record every problem posed to the primary solver (``hitchpark bench``).
         self.recorder: list[NLPProblem] | None = None
+
+    @property
+    def prediction_step(self) -> float:
+        """The OCP's prediction step [s] (``prediction_dt``, which the settings resolve to ``dt`` if unset)."""
+        return float(self.settings.prediction_dt or self.settings.dt)
 
     @property
     def problem(self) -> OCP:
@@ -206,8 +211,7 @@ class RecedingHorizon:
         it starts braking at the limit, say), and the longer the horizon the more such changes it holds: the
         iterations, and the time, of a long horizon grew with it (README, "Speed", "Prediction grid").
         """
-        s = self.settings
-        step = float(s.prediction_dt or s.dt)
+        s, step = self.settings, self.prediction_step
         if not self.problem.first_step:
             return step, s.dt / step
         if self._last_inputs is None:

@@ -219,10 +219,9 @@ class MultipleShooting(Transcription):
         lam_g = np.array(lam_g, dtype=float).ravel()
         if lam_x.size != self._n or lam_g.size != len(self.lbg):
             return None
-        for lam, (moved, ahead) in ((lam_x, self._shift_x), (lam_g, self._shift_g)):
-            if part <= 0.0:
-                break
-            lam[moved] = lam[ahead] if part >= 1.0 else (1.0 - part) * lam[moved] + part * lam[ahead]
+        if part > 0.0:  # (0: the grid stays put, each stage keeps its own)
+            for lam, (moved, ahead) in ((lam_x, self._shift_x), (lam_g, self._shift_g)):
+                lam[moved] = lam[ahead] if part >= 1.0 else (1.0 - part) * lam[moved] + part * lam[ahead]
         lam_x[self._x_idx[0]] = 0.0
         return lam_x, lam_g
 
@@ -302,7 +301,8 @@ class SingleShooting(Transcription):
         first: list[float] = []
         if self.problem.first_step:  # the first step's length: p's last entry, else a whole prediction step
             whole = len(x0) == self._n_p
-            first = [float(x0[-1]) if whole else float(self.problem.settings.prediction_dt or 0.0)]
+            assert self.problem.settings.prediction_dt is not None
+            first = [float(x0[-1]) if whole else float(self.problem.settings.prediction_dt)]
         return np.asarray(self._rollout(w, x0[: self._nx], *first)), w.reshape(self._N, self._nu)
 
 
