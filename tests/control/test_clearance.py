@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 from hitchpark import VehicleTrailer
 from hitchpark.control import NMPCSettings
 from hitchpark.control.clearance import REACH_M, ClearanceConstraints, convex_pieces, separating_lines
-from hitchpark.control.nmpc import FullNMPC
+from hitchpark.control.nmpc import COLD_ROUNDS, FullNMPC
+from hitchpark.control.receding import NLPProblem
 from hitchpark.model.collision import clearance
 from hitchpark.model.geometry import body_corners
 from hitchpark.model.plant import Measurement
@@ -153,6 +154,51 @@ def test_the_obstacle_ocp_keeps_its_plan_clear_where_the_open_one_does_not():
     nmpc.keep_clear(Scene(), need)  # back in open space: the open OCP again
     nmpc.reset()
     assert _plan_clearances(nmpc, start, goal, wall)[1] == pytest.approx(open_least, abs=1e-6)
+
+
+class _FailingSolver:
+    """A solver that never succeeds and answers with a wild iterate (as a failed interior-point run can)."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def __call__(self, **inputs: np.ndarray) -> dict[str, np.ndarray]:
+        self.calls += 1
+        x = np.asarray(inputs["x0"], dtype=float) + 1e6
+        return {"x": x, "f": np.array(2e14), "lam_x": np.zeros_like(x), "lam_g": np.zeros(len(inputs["lbg"]))}
+
+    def stats(self) -> dict[str, object]:
+        return {"success": False, "return_status": "Maximum_Iterations_Exceeded"}
+
+
+def test_a_cold_start_whose_rounds_all_fail_starts_from_the_plan_without_lines(monkeypatch):
+    """Among obstacles a cold start solves the OCP without lines first, then, where that plan passes too
+    close, the obstacle OCP in rounds. When every round fails, the primary solver starts from the plan
+    without lines, never from a failed round's iterate (given one, the solvers spend minutes on it)."""
+    goal = Pose()
+    start = State(7.0, 1.2, math.radians(-8.0), math.radians(-6.0))
+    wall = Scene((Obstacle("wall", np.array([[0.5, 2.1], [5.0, 2.1], [5.0, 3.0], [0.5, 3.0]])),))
+    nmpc = FullNMPC(VEHICLE, NMPCSettings(jit=False))
+    open_plan = nmpc.act(Measurement(0.0, start, 0.0, 0.0), goal)  # the plan without lines: too close here
+    nmpc.reset()
+    nmpc.keep_clear(wall, 0.3)
+    failing = _FailingSolver()
+    monkeypatch.setattr(nmpc, "_general_solver", lambda program=None: failing)
+
+    class StartsFromTheOpenPlan(list):
+        """Checks each problem the primary solver is given as it is posed (a wild start would hang it)."""
+
+        def append(self, problem: NLPProblem) -> None:
+            states, inputs = nmpc.transcription.unpack(problem.w0, problem.p)
+            np.testing.assert_allclose(states, open_plan.predicted_states, atol=1e-6)
+            np.testing.assert_allclose(inputs, open_plan.predicted_inputs, atol=1e-6)
+            super().append(problem)
+
+    nmpc.recorder = StartsFromTheOpenPlan()
+    step = nmpc.act(Measurement(0.0, start, 0.0, 0.0), goal)
+    assert failing.calls >= COLD_ROUNDS  # every round tried (again if the cascade starts cold once more)
+    assert len(nmpc.recorder) >= 1
+    assert step.ok or step.stop  # an answer or a safe stop
 
 
 def test_lines_within_reach_are_those_of_all_pieces_and_none_far_off():
