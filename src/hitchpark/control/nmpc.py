@@ -226,8 +226,8 @@ class FullNMPC(RecedingHorizon):
             if ok:
                 return iterate
         # No round succeeded: the plan without lines (or the guess), not the last failed iterate, which can be
-        # anything (measured in the bay at N = 80: an objective of 2e14, a dual infeasibility of 1e24), and
-        # on which the solvers that follow spend many times a tick (sqpmethod minutes in one call).
+        # anything; from one far off the solvers that follow can spend minutes (the wild iterate of
+        # tests/control/test_clearance.py's failing rounds held the step for minutes on the old code).
         return start
 
     def _reference_guess(self, x0: np.ndarray, u_min: np.ndarray, u_max: np.ndarray) -> np.ndarray:
