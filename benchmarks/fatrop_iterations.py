@@ -101,7 +101,7 @@ def main() -> None:
                 if count is not None:
                     own[label].append(int(count))
         its = np.array(iterations)
-        ms = float(np.median(_time_route(timed, problems)[0]))
+        ms = float(np.median(_time_route(timed, problems).wall))
         times[n] = ms
         print(
             f"N = {n}: {len(its)} problems; fatrop iterations median {np.median(its):g}, mean {its.mean():.2f}, "

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -40,6 +41,12 @@ def test_bench_times_every_route_on_the_same_recorded_problems(paper_bench):
     assert bench.routes["ipopt"].max_move_diff == 0.0
     assert list(bench.horizon_scaling_ms) == ["10", "20"] and all(v > 0 for v in bench.horizon_scaling_ms.values())
     assert bench.horizon_scaling_failures == {"10": 0, "20": 0}
+    # Every route here counts its iterations: IPOPT's interior point takes more than the warm-started SQP.
+    for route in bench.routes.values():
+        assert 1 <= route.iterations_median <= route.iterations_p99 and route.iterations_median % 0.5 == 0
+    assert bench.routes["ipopt"].iterations_median > bench.routes["sqp"].iterations_median
+    assert list(bench.horizon_scaling_iterations) == ["10", "20"]
+    assert all(v >= 1 for v in bench.horizon_scaling_iterations.values())
 
 
 def test_bench_drives_the_paper_scenarios_with_each_route(paper_bench):
@@ -113,9 +120,10 @@ def test_timed_jobs_take_turns_each_solving_its_problems_in_order_once():
     assert [name for name, _ in timed_log] == list("aabaabaabaabb")
     assert [x for name, x in timed_log if name == "a"] == [p.value for p in a]
     assert [x for name, x in timed_log if name == "b"] == [p.value for p in b]
-    wall, cpu, answers = timed["b"]
-    assert len(wall) == len(cpu) == len(answers) == len(b) and np.all(wall >= 0)
+    wall, cpu, answers, iterations = timed["b"]
+    assert len(wall) == len(cpu) == len(answers) == len(iterations) == len(b) and np.all(wall >= 0)
     assert [None if x is None else float(x[0]) for x in answers] == [100.0, 101.0, 102.0, 103.0, None]
+    assert np.all(np.isnan(iterations))  # this solver reports no iterations
 
 
 class _DualSolver(_Solver):
@@ -154,7 +162,7 @@ def test_a_timed_job_stops_once_its_budget_is_spent_while_the_others_go_on():
         },
         rounds=4,
     )
-    slow_wall, _, slow_answers = timed["slow"]
+    slow_wall, _, slow_answers, _ = timed["slow"]
     assert 5 <= len(slow_wall) < 10  # stopped after the call that went past 10 ms, within the first round
     assert [float(x[0]) for x in slow_answers] == [p.value for p in problems[: len(slow_answers)]]
     assert len(timed["fast"][0]) == len(problems)
@@ -173,7 +181,8 @@ def test_cli_bench_writes_the_schema(tmp_path, capsys):
         "random",
     }
     assert paper["default"] == BENCH_OCPS["paper"].nmpc.solver and paper["horizon_scaling_ms"] == {}
-    assert paper["horizon_scaling_failures"] == {}
+    assert paper["horizon_scaling_failures"] == {} and paper["horizon_scaling_iterations"] == {}
+    assert paper["routes"]["ipopt"]["iterations_median"] >= 1
     assert "x ipopt" in capsys.readouterr().out
 
 
@@ -238,6 +247,10 @@ def test_the_table_names_the_failures_of_a_horizon():
     table = bench_table({"paper": bench})
     assert "N=10: 0.100, N=80: 0.900 (2 failed)" in table
     assert bench.to_dict()["horizon_scaling_failures"] == {"10": 0, "80": 2}
+    assert route.to_dict()["iterations_median"] is None  # no count: null in JSON, "-" in the table
+    counted = OCPBench({"ipopt": replace(route, iterations_median=4.0)}, "ipopt", {"10": 0.1}, 10, 1, {}, {"10": 4.0})
+    table = bench_table({"paper": counted})
+    assert "N=10: 0.100 (4 its)" in table and counted.to_dict()["horizon_scaling_iterations"] == {"10": 4.0}
 
 
 def test_a_horizon_is_timed_on_the_problems_of_the_ocp_its_solver_takes():

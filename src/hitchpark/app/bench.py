@@ -20,7 +20,7 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -44,6 +44,7 @@ __all__ = [
     "BenchStart",
     "OCPBench",
     "RouteBench",
+    "TimedCalls",
     "bench_table",
     "run_bench",
     "time_interleaved",
@@ -134,11 +135,16 @@ class RouteBench:
     speedup_vs_ipopt: float
     max_move_diff: float  # largest |first move - IPOPT's| over the problems both solved (input units)
     final_errors: dict[str, dict[str, float]] = field(default_factory=dict)
+    #: The solver's own count per call, median and p99 (NaN: the route reports none). Time over iterations
+    #: is what carries over to another computer; the count is the route's and the problems'.
+    iterations_median: float = math.nan
+    iterations_p99: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "final_errors"}
-        if math.isnan(self.max_move_diff):  # no problem solved by both
-            out["max_move_diff"] = None
+        for key in ("max_move_diff", "iterations_median", "iterations_p99"):
+            if math.isnan(out[key]):  # no problem solved by both; no count reported
+                out[key] = None
         if self.final_errors:
             out["final_errors"] = self.final_errors
         return out
@@ -155,6 +161,9 @@ class OCPBench:
     starts: int
     #: Per horizon, the default route's calls that failed (that the fallback would have answered).
     horizon_scaling_failures: dict[str, int] = field(default_factory=dict)
+    #: Per horizon, the default route's median iterations (NaN: it reports none): N = 80 against N = 10 in
+    #: time is the cost of a stage times the ratio of these.
+    horizon_scaling_iterations: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -162,6 +171,9 @@ class OCPBench:
             "default": self.default,
             "horizon_scaling_ms": dict(self.horizon_scaling_ms),
             "horizon_scaling_failures": dict(self.horizon_scaling_failures),
+            "horizon_scaling_iterations": {
+                n: (None if math.isnan(its) else its) for n, its in self.horizon_scaling_iterations.items()
+            },
             "problems": self.problems,
             "starts": self.starts,
         }
@@ -200,9 +212,19 @@ def _own_problems(controller: TrailerNMPC | FullNMPC, problems: Sequence[NLPProb
     return [problem for problem in problems if len(problem.p) == n_p]
 
 
+class TimedCalls(NamedTuple):
+    """One solver's calls, in its problems' order: wall and CPU ms, each answer (None where it failed) and
+    the iterations it reported (NaN where it reports none)."""
+
+    wall: np.ndarray
+    cpu: np.ndarray
+    answers: list[Any]
+    iterations: np.ndarray
+
+
 @dataclass
 class _Timing:
-    """One solver's calls on its problems: wall and CPU seconds and answers, in the problems' order."""
+    """One solver's calls on its problems: wall and CPU seconds, answers and iterations, in the problems' order."""
 
     solver: Any
     problems: Sequence[NLPProblem]
@@ -210,6 +232,7 @@ class _Timing:
     wall: list[float] = field(default_factory=list)
     cpu: list[float] = field(default_factory=list)
     answers: list[Any] = field(default_factory=list)
+    iterations: list[float] = field(default_factory=list)
 
     def warm_up(self) -> None:
         """Load caches and libraries before timing."""
@@ -229,24 +252,25 @@ class _Timing:
             inputs = problem.inputs(duals)
             t0, c0 = time.perf_counter(), time.process_time()
             answer = self.solver(**inputs)
-            ok = bool(self.solver.stats()["success"])
+            stats = self.solver.stats()
+            ok = bool(stats["success"])
             wall = time.perf_counter() - t0
             self.cpu.append(time.process_time() - c0)
             self.wall.append(wall)
             spent += wall
             self.answers.append(np.asarray(answer["x"]).ravel() if ok else None)
+            self.iterations.append(float(stats.get("iter_count", math.nan)))
 
-    def result(self) -> tuple[np.ndarray, np.ndarray, list[Any]]:
-        """Wall and CPU ms per call, and each answer (None where the solver failed)."""
-        return 1e3 * np.array(self.wall), 1e3 * np.array(self.cpu), self.answers
+    def result(self) -> TimedCalls:
+        return TimedCalls(1e3 * np.array(self.wall), 1e3 * np.array(self.cpu), self.answers, np.array(self.iterations))
 
 
 def time_interleaved(
     jobs: Mapping[str, tuple[Any, Sequence[NLPProblem], float]], rounds: int = ROUNDS
-) -> dict[str, tuple[np.ndarray, np.ndarray, list[Any]]]:
-    """Wall and CPU ms per call, and each answer (None where the solver failed), of each job ``(solver,
-    problems, budget_s)``: its problems in order, one call each, until ``budget_s`` seconds of calls are
-    spent (a route far slower than the rest is not run to the end).
+) -> dict[str, TimedCalls]:
+    """The calls (:class:`TimedCalls`) of each job ``(solver, problems, budget_s)``: its problems in order,
+    one call each, until ``budget_s`` seconds of calls are spent (a route far slower than the rest is not
+    run to the end).
 
     The jobs take turns: in each of ``rounds`` rounds every job solves its next ``1/rounds`` share of its
     problems, so that a machine whose speed drifts over minutes slows every job alike and the ratios
@@ -263,10 +287,8 @@ def time_interleaved(
     return {key: timing.result() for key, timing in timings.items()}
 
 
-def _time_route(
-    solver: Any, problems: Sequence[NLPProblem], budget_s: float = math.inf
-) -> tuple[np.ndarray, np.ndarray, list[Any]]:
-    """Wall and CPU ms per call, and each answer (None where the solver failed), of one solver alone."""
+def _time_route(solver: Any, problems: Sequence[NLPProblem], budget_s: float = math.inf) -> TimedCalls:
+    """The calls of one solver alone."""
     return time_interleaved({"": (solver, problems, budget_s)}, rounds=1)[""]
 
 
@@ -316,13 +338,13 @@ def bench_ocp(
         jobs[name] = (solver, problems, math.inf if name == "ipopt" else ROUTE_BUDGET_S)
     progress(f"{ocp.name}: {', '.join(jobs)} on {len(problems)} problems, taking turns")
     timed = time_interleaved(jobs)
-    ipopt_median = float(np.median(timed["ipopt"][0]))
+    ipopt_median = float(np.median(timed["ipopt"].wall))
     results = {}
     for name in routes:
-        wall, cpu, answers = timed[name]
+        wall, cpu, answers, iterations = timed[name]
         diffs = [
             np.max(np.abs(tr.unpack(a, p.p)[1][0] - tr.unpack(b, p.p)[1][0]))
-            for a, b, p in zip(answers, timed["ipopt"][2], problems, strict=False)  # a route cut short: its calls
+            for a, b, p in zip(answers, timed["ipopt"].answers, problems, strict=False)  # a route cut short: its calls
             if a is not None and b is not None
         ]
         finals = {}
@@ -339,6 +361,7 @@ def bench_ocp(
             ipopt_median / float(np.median(wall)),
             float(max(diffs)) if diffs else math.nan,
             finals,
+            *_iteration_stats(iterations),
         )
     default = ocp.nmpc.solver
     assert default is not None
@@ -349,9 +372,18 @@ def bench_ocp(
         horizon_jobs[str(horizon)] = (controller.solver, _own_problems(controller, recorded), math.inf)
     progress(f"{ocp.name}: the default route at N = {', '.join(horizon_jobs)}, taking turns")
     timed_horizons = time_interleaved(horizon_jobs)
-    scaling = {key: float(np.median(wall)) for key, (wall, _, _) in timed_horizons.items()}
-    failed = {key: sum(a is None for a in answers) for key, (_, _, answers) in timed_horizons.items()}
-    return OCPBench(results, default, scaling, len(problems), len(starts), failed)
+    scaling = {key: float(np.median(calls.wall)) for key, calls in timed_horizons.items()}
+    failed = {key: sum(a is None for a in calls.answers) for key, calls in timed_horizons.items()}
+    counts = {key: _iteration_stats(calls.iterations)[0] for key, calls in timed_horizons.items()}
+    return OCPBench(results, default, scaling, len(problems), len(starts), failed, counts)
+
+
+def _iteration_stats(iterations: np.ndarray) -> tuple[float, float]:
+    """Median and p99 of the iterations of the calls that report them (NaN, NaN: none does)."""
+    known = iterations[np.isfinite(iterations)]
+    if not len(known):
+        return math.nan, math.nan
+    return float(np.median(known)), float(np.percentile(known, 99))
 
 
 def run_bench(
@@ -378,7 +410,7 @@ def bench_table(results: dict[str, OCPBench]) -> str:
     """The printed table: one row per OCP and route, the default marked."""
     head = (
         f"{'OCP':<10}{'route':<11}{'median ms':>10}{'p99 ms':>10}{'max ms':>10}{'cpu ms':>8}{'fails':>7}"
-        f"{'x ipopt':>9}{'move diff':>11}{'worst final error':>22}"
+        f"{'its':>5}{'x ipopt':>9}{'move diff':>11}{'worst final error':>22}"
     )
     lines = [head]
     for ocp, bench in results.items():
@@ -396,12 +428,21 @@ def bench_table(results: dict[str, OCPBench]) -> str:
             )
             lines.append(
                 f"{ocp:<10}{name + mark:<11}{r.median_ms:>10.3f}{r.p99_ms:>10.3f}{r.max_ms:>10.3f}"
-                f"{r.cpu_median_ms:>8.3f}{r.failures:>7d}{r.speedup_vs_ipopt:>9.1f}{r.max_move_diff:>11.1e}{final:>22}{cut}"
+                f"{r.cpu_median_ms:>8.3f}{r.failures:>7d}{_its(r.iterations_median):>5}{r.speedup_vs_ipopt:>9.1f}"
+                f"{r.max_move_diff:>11.1e}{final:>22}{cut}"
             )
         scaling = ", ".join(
-            f"N={n}: {ms:.3f}" + (f" ({fails} failed)" if (fails := bench.horizon_scaling_failures.get(n, 0)) else "")
+            f"N={n}: {ms:.3f}"
+            + (f" ({its} its)" if (its := _its(bench.horizon_scaling_iterations.get(n, math.nan))) != "-" else "")
+            + (f" ({fails} failed)" if (fails := bench.horizon_scaling_failures.get(n, 0)) else "")
             for n, ms in bench.horizon_scaling_ms.items()
         )
         lines.append(f"{'':<10}default {bench.default} by horizon [ms]: {scaling}")
-    lines.append("* the default route; x ipopt = IPOPT's median over the route's, same run")
+    lines.append(
+        "* the default route; its = the route's median iterations; x ipopt = IPOPT's median over the route's, same run"
+    )
     return "\n".join(lines)
+
+
+def _its(count: float) -> str:
+    return "-" if math.isnan(count) else f"{count:g}"
