@@ -6,8 +6,9 @@ Parks the first N starts (default 40) of ``hitchpark sweep --n 1000 --seed SEED`
 the other in this process, with the sweep's controller (warmed up on another start first), and prints per
 case: the wall-clock time, the time of the NMPC's solve calls (``solve_ms`` of each row: the whole call,
 warm start and parameters included), the planning time, and the rest (sensing, the reference window, the
-plant's step, the record), per case and per control step. Run it twice around a change, interleaved: this
-machine's speed drifts by 10-20% over minutes. A measurement, not a test.
+plant's step, the record), per case and per control step, and the median, p90 and largest wall of a
+case. Run it twice around a change, interleaved: this machine's speed drifts by 10-20% over minutes. A
+measurement, not a test.
 
 ``--detail`` also times the parts of a control step and of planning (each wrapped in a timer, which adds
 about a microsecond a call) and prints, per part, its calls and milliseconds per case and microseconds per
@@ -96,10 +97,12 @@ def main() -> None:
         part[:] = [0.0, 0]
     wall = solve = planning = 0.0
     steps = solves = parked = 0
+    walls = []
     for i in range(n):
         t0 = time.perf_counter()
         result = case(i)
-        wall += time.perf_counter() - t0
+        walls.append(time.perf_counter() - t0)
+        wall += walls[-1]
         ms = np.asarray(result.trajectory.columns["solve_ms"], dtype=float)
         solve += float(np.nansum(ms)) / 1e3
         solves += int(np.sum(np.isfinite(ms)))
@@ -113,6 +116,8 @@ def main() -> None:
         f" + rest {1e3 * rest / n:.1f}"
     )
     print(f"per control step [us]: solve {1e6 * solve / max(solves, 1):.0f}, rest {1e6 * rest / max(steps, 1):.0f}")
+    p50, p90, top = 1e3 * np.percentile(walls, [50, 90, 100])
+    print(f"a case's wall [ms]: median {p50:.0f}, p90 {p90:.0f}, max {top:.0f}")
     for label, (seconds, calls) in spent.items():
         print(
             f"{label:<56} {calls / n:7.1f} calls {1e3 * seconds / n:7.1f} ms a case"
