@@ -95,18 +95,21 @@ def main() -> None:
         # from the multipliers the controller started each problem from, and from fatrop's own start.
         own: dict[str, list[int]] = {"the controller's multipliers": [], "fatrop's own start": []}
         for problem in problems:
-            for label, given in zip(own, (problem.inputs(duals=True), problem.inputs())):
+            for label, given in zip(own, (problem.inputs(duals=True), problem.inputs()), strict=True):
                 timed(**given)
                 count = timed.stats().get("iter_count")
                 if count is not None:
                     own[label].append(int(count))
         its = np.array(iterations)
-        ms = float(np.median(_time_route(timed, problems).wall))
+        calls = _time_route(timed, problems)
+        ms = float(np.median(calls.wall))
+        counted = np.isfinite(calls.iterations)  # the timed calls' own iterations (from the controller's multipliers)
+        per_iteration = float(np.sum(calls.wall[counted]) / max(np.sum(calls.iterations[counted]), 1.0))
         times[n] = ms
         print(
             f"N = {n}: {len(its)} problems; fatrop iterations median {np.median(its):g}, mean {its.mean():.2f}, "
             f"p90 {np.percentile(its, 90):g}, max {its.max()}, failures {failures}; {ocp.nmpc.solver} "
-            f"{ms:.3f} ms a call, {ms / np.median(its):.4f} ms an iteration"
+            f"{ms:.3f} ms a call, {per_iteration:.4f} ms an iteration (their time over their iterations)"
         )
         for label, counts in own.items():
             if counts:
