@@ -232,9 +232,8 @@ class FullNMPC(RecedingHorizon):
 
     def _reference_guess(self, x0: np.ndarray, u_min: np.ndarray, u_max: np.ndarray) -> np.ndarray:
         """The reference as a warm start: its states, and the rates that move the steer and speed to it."""
-        assert self.settings.prediction_dt is not None
         states = np.vstack([x0[None, :], self._references])
-        steps = np.full(len(self._references), self.settings.prediction_dt)
+        steps = np.full(len(self._references), self.prediction_step)
         steps[0] = self._first_now
         rates = np.diff(states[:, 4:6], axis=0) / steps[:, None]
         return self.transcription.guess(x0, np.clip(rates, u_min, u_max), states)
@@ -242,10 +241,7 @@ class FullNMPC(RecedingHorizon):
     def _cold_inputs(self) -> np.ndarray:
         # Accelerate in reverse, straight: from standing still a zero input sees no gain in moving.
         n = self.problem.horizon
-        assert self.settings.prediction_dt is not None
-        ramp = max(
-            1, round(0.5 * abs(self.settings.speed_min) / (self.vehicle.max_accel * self.settings.prediction_dt))
-        )
+        ramp = max(1, round(0.5 * abs(self.settings.speed_min) / (self.vehicle.max_accel * self.prediction_step)))
         accel = np.where(np.arange(n) < ramp, -self.vehicle.max_accel, 0.0)
         return np.column_stack([np.zeros(n), accel])
 
