@@ -101,10 +101,11 @@ def main() -> None:
                 if count is not None:
                     own[label].append(int(count))
         its = np.array(iterations)
-        calls = _time_route(timed, problems)
-        ms = float(np.median(calls.wall))
-        counted = np.isfinite(calls.iterations)  # the timed calls' own iterations (from the controller's multipliers)
-        per_iteration = float(np.sum(calls.wall[counted]) / max(np.sum(calls.iterations[counted]), 1.0))
+        timed_calls = _time_route(timed, problems)
+        ms = float(np.median(timed_calls.wall))
+        # The timed calls' own iterations (from the controller's multipliers).
+        counted = np.isfinite(timed_calls.iterations)
+        per_iteration = float(np.sum(timed_calls.wall[counted]) / max(np.sum(timed_calls.iterations[counted]), 1.0))
         times[n] = ms
         print(
             f"N = {n}: {len(its)} problems; fatrop iterations median {np.median(its):g}, mean {its.mean():.2f}, "
