@@ -4,11 +4,13 @@ every limit, clear of the scene, and the searched path kept when no refined one 
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from hitchpark.checks import InputError
 from hitchpark.control.planner import PlannerSettings, plan
 from hitchpark.control.planner.refine import CHECK_STEP_M, refine_end
 from hitchpark.maneuver.scenario import builtin_scenario
@@ -113,13 +115,38 @@ def test_a_goal_line_end_lands_on_the_line():
     assert np.all(np.diff(driven) > 0.0)
 
 
-def test_an_end_that_cannot_be_refined_keeps_the_searched_path():
+@pytest.mark.parametrize("solver", ["fatrop", "ipopt"])
+def test_an_end_that_cannot_be_refined_keeps_the_searched_path(solver):
     """0.88 m off the goal line 7 m out: the searched run lands in the tolerance with the steer at 43 deg,
-    and no run from there settles exactly at the goal within the limits (IPOPT: infeasible). The plan is
-    the searched one, and says so."""
+    and no run from there settles exactly at the goal within the limits (infeasible, by either solver). The
+    plan is the searched one, and says so."""
     start = State(7.058, -0.879, 0.0143, 0.056)
-    refined = plan(VEHICLE, start, Pose(), Scene(), SETTINGS)
+    refined = plan(VEHICLE, start, Pose(), Scene(), replace(SETTINGS, refine_solver=solver))
     searched = plan(VEHICLE, start, Pose(), Scene(), replace(SETTINGS, refine_m=0.0))
-    assert refined.found and "its end not refined (IPOPT found no path ending at the goal)" in refined.detail
+    assert refined.found and f"its end not refined ({solver} found no path ending at the goal)" in refined.detail
     for name, column in searched.path.items():
         np.testing.assert_array_equal(refined.path[name], column)
+
+
+@pytest.mark.parametrize(
+    "start",
+    [State(12.0, 2.0, math.radians(25.0), math.radians(-10.0)), State(14.0, -4.0, math.radians(-30.0), 0.1)],
+)
+def test_fatrop_and_ipopt_refine_to_the_same_path(start):
+    """The default solver of the refinement NLP (fatrop, on its stages) and the reference (IPOPT) reach the
+    same optimum: the same rows to well within a millimetre, each within every limit."""
+    paths = {}
+    for solver in ("fatrop", "ipopt"):
+        result = plan(VEHICLE, start, Pose(), Scene(), replace(SETTINGS, refine_solver=solver))
+        assert result.found and result.detail.endswith("its end refined to end at the goal")
+        first = int(np.flatnonzero(result.path["direction"] > 0)[-1]) if np.any(result.path["direction"] > 0) else 0
+        _check_refined_run(result.path, first)
+        paths[solver] = result.path
+    assert len(paths["fatrop"]["s"]) == len(paths["ipopt"]["s"])
+    for name in ("x_trailer", "y_trailer", "yaw_trailer", "hitch", "front_steer", "t"):
+        np.testing.assert_allclose(paths["fatrop"][name], paths["ipopt"][name], atol=1e-5)
+
+
+def test_an_unknown_refine_solver_is_refused():
+    with pytest.raises(InputError, match=re.escape("planner.refine_solver must be one of 'fatrop', 'ipopt', got 'qp'")):
+        PlannerSettings(refine_solver="qp")

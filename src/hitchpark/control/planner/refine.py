@@ -10,11 +10,12 @@ the goal, hitch and front steer straight. Its front steer moves within ``max_ste
 at 1 m/s) and ``max_steer``, its hitch within ``max_hitch - hitch_margin``.
 
 A nonlinear program by direct multiple shooting (one RK4 step per interval, a fixed number of intervals,
-their length free within limits: the path may grow or shrink a little), solved by IPOPT from the
-search's own run moved onto the goal. The cost keeps the trailer axle near that run (which passed the
+their length free within limits: the path may grow or shrink a little), laid out in stages and solved
+by fatrop (``PlannerSettings.refine_solver``; IPOPT the reference) from the search's own run moved onto
+the goal. The cost keeps the trailer axle near that run (which passed the
 collision check) and the steer rate, the hitch and the steer low; among obstacles every node keeps the
 scene's separating lines (:mod:`~hitchpark.control.clearance`), and :func:`refine_plan` checks the
-result's exact swept clearance. When IPOPT fails, or the result does not keep clear, the searched path
+result's exact swept clearance. When the solver fails, or the result does not keep clear, the searched path
 stays. (A run that starts standing still may start with another steer: it is set at the standstill.)
 """
 
@@ -23,12 +24,14 @@ from __future__ import annotations
 import functools
 import math
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
+from ...checks import InputError
 from ...model.collision import swept_clearance
 from ...model.integrate import rk4
 from ...model.kinematics import full_rhs
@@ -38,7 +41,15 @@ from ...model.vehicle import VehicleTrailer
 from ..clearance import ClearanceConstraints
 from .settings import PATH_COLUMNS, Plan, PlannerSettings
 
-__all__ = ["REFINE_PLANES", "REFINE_STEPS", "refine_end", "refine_plan", "refine_solver"]
+__all__ = [
+    "REFINE_PLANES",
+    "REFINE_SOLVERS",
+    "REFINE_STEPS",
+    "refine_end",
+    "refine_plan",
+    "refine_solver",
+    "refine_solver_names",
+]
 
 #: Intervals of the refined part (its length / REFINE_STEPS each: 0.25 m of rear axle over 20 m).
 REFINE_STEPS = 80
@@ -84,61 +95,119 @@ WIDE_M = 0.15
 OBSTACLE_ATTEMPTS = ((OBSTACLE_WEIGHTS, SETTLE_M), (CLOSE_WEIGHTS, SETTLE_M), (CLOSE_WEIGHTS, 0.0))
 
 
-@functools.lru_cache(maxsize=16)
-def refine_solver(
-    vehicle: VehicleTrailer, hitch_limit: float, planes: int = 0
-) -> tuple[ca.Function, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """IPOPT on the refinement NLP, the bounds of its variables and of its constraints that do not change
-    between calls.
+#: The refinement's bounds on the steer, its rate and the hitch are drawn in by this much [rad, rad/m]: an
+#: interior-point solver may end a hair past a bound it rests on (fatrop relaxes its bounds by about 1e-8),
+#: and the path must keep the limits themselves.
+BOUND_MARGIN = 1e-6
 
-    Variables: the states Z_0..Z_N (x, y, yaw, hitch, steer; goal frame), the steer rates U_0..U_{N-1}
-    [rad per m of rear axle] and the length T [m of rear axle]. Parameters: the trailer-axle positions of
-    the searched path at the N + 1 nodes, the weights, and with ``planes`` > 0 the separating lines of
-    Z_1..Z_N (:class:`~hitchpark.control.clearance.ClearanceConstraints`: ``planes`` per body).
-    """
-    n = REFINE_STEPS
-    z = ca.SX.sym("z", 5, n + 1)
-    u = ca.SX.sym("u", 1, n)
-    length = ca.SX.sym("length")
-    ref = ca.SX.sym("ref", 2, n + 1)
-    weight = ca.SX.sym("weight", 4)
-    clearance = ClearanceConstraints(vehicle, planes) if planes else None
-    lines = ca.SX.sym("lines", 0 if clearance is None else clearance.n_params, n)
-    h = length / n
 
-    def rhs(state: ca.SX, rate: ca.SX) -> ca.SX:
-        return ca.vertcat(full_rhs(vehicle, state[:4], ca.vertcat(-1.0, state[4])), rate)
+def _fatrop(equality: list[bool]) -> tuple[str, dict[str, Any]]:
+    """fatrop on the NLP's stages, from its own start (the guess is the searched run, not a warm start)."""
+    return "fatrop", {
+        "print_time": False,
+        "structure_detection": "auto",
+        "equality": equality,
+        "debug": False,
+        "fatrop.print_level": 0,
+        "fatrop.tol": 1e-8,
+        "fatrop.max_iter": 200,
+    }
 
-    gaps, rows = [], []
-    cost: Any = 0
-    for k in range(n):
-        x, r = z[:, k], u[0, k]
-        gaps.append(rk4(functools.partial(rhs, rate=r), x, h, substeps=1) - z[:, k + 1])
-        error = z[:2, k + 1] - ref[:, k + 1]
-        x1 = z[:, k + 1]
-        cost += h * (weight[0] * ca.sumsqr(error) + weight[1] * r**2 + weight[2] * x1[3] ** 2 + weight[3] * x1[4] ** 2)
-        if clearance is not None:
-            rows += clearance.rows(x1, lines[:, k])[0]
-    g = ca.vertcat(*gaps, *rows)
-    low_g = np.concatenate([np.zeros(5 * n), np.zeros(len(rows))])
-    high_g = np.concatenate([np.zeros(5 * n), np.full(len(rows), np.inf)])
-    w = ca.vertcat(ca.vec(z), ca.vec(u), length)
-    nlp: dict[str, Any] = {"x": w, "p": ca.vertcat(ca.vec(ref), weight, ca.vec(lines)), "f": cost, "g": g}
-    options: dict[str, Any] = {
+
+def _ipopt(equality: list[bool]) -> tuple[str, dict[str, Any]]:
+    """IPOPT, the reference: the same optimum (to about 1e-6 m) in the same iterations, 1.3 to 2.5 times slower."""
+    return "ipopt", {
         "print_time": False,
         "ipopt.print_level": 0,
         "ipopt.sb": "yes",
         "ipopt.max_iter": 200,
         "ipopt.tol": 1e-8,
-        "ipopt.bound_relax_factor": 0.0,  # the steer, its rate and the hitch exactly within their limits
+        "ipopt.bound_relax_factor": 0.0,
     }
-    solver = ca.nlpsol("refine_end", "ipopt", nlp, options)
+
+
+#: The solvers of the refinement NLP by name (``PlannerSettings.refine_solver``): each gives CasADi's plugin
+#: and options from the rows of ``g`` that are equalities. In-process (nothing to compile: generated to C the
+#: whole 80-step NLP took 30 s to compile, 65 s among obstacles).
+REFINE_SOLVERS: dict[str, Callable[[list[bool]], tuple[str, dict[str, Any]]]] = {"fatrop": _fatrop, "ipopt": _ipopt}
+
+
+def refine_solver_names() -> tuple[str, ...]:
+    return tuple(REFINE_SOLVERS)
+
+
+@functools.lru_cache(maxsize=16)
+def refine_solver(
+    vehicle: VehicleTrailer, hitch_limit: float, planes: int = 0, solver: str = "fatrop"
+) -> tuple[ca.Function, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The refinement NLP solved by ``solver`` (:data:`REFINE_SOLVERS`), the bounds of its variables and of
+    its constraints that do not change between calls.
+
+    Laid out in stages, as fatrop takes it: ``w = [X_0, U_0, X_1, ..., U_{N-1}, X_N]``, each X_k the state
+    (x, y, yaw, hitch, steer; goal frame) and the length T [m of rear axle] (the same at every stage: T_{k+1}
+    = T_k, a state without dynamics, bounded at stage 0), U_k the steer rate [rad per m of rear axle];
+    ``g = [gap_0, (gap_k, rows on X_k) for 0 < k < N, rows on X_N]``. Parameters: the trailer-axle positions
+    of the searched path at the N + 1 nodes, the weights, and with ``planes`` > 0 the separating lines of
+    X_1..X_N (:class:`~hitchpark.control.clearance.ClearanceConstraints`: ``planes`` per body). See
+    :func:`_stages` for the indices of the parts of ``w``.
+    """
+    if solver not in REFINE_SOLVERS:
+        raise InputError(f"planner.refine_solver must be one of {', '.join(REFINE_SOLVERS)}, got {solver!r}")
+    n = REFINE_STEPS
+    X = [ca.SX.sym(f"X{k}", 6) for k in range(n + 1)]
+    U = [ca.SX.sym(f"U{k}") for k in range(n)]
+    ref = ca.SX.sym("ref", 2, n + 1)
+    weight = ca.SX.sym("weight", 4)
+    clearance = ClearanceConstraints(vehicle, planes) if planes else None
+    lines = ca.SX.sym("lines", 0 if clearance is None else clearance.n_params, n)
+
+    def rhs(state: ca.SX, rate: ca.SX) -> ca.SX:
+        return ca.vertcat(full_rhs(vehicle, state[:4], ca.vertcat(-1.0, state[4])), rate)
+
+    w, g, equality = [], [], []
+    cost: Any = 0
+    for k in range(n + 1):
+        z, length = X[k][:5], X[k][5]
+        h = length / n
+        w.append(X[k])
+        if k > 0:  # node k's share of the path (its interval's length)
+            error = z[:2] - ref[:, k]
+            cost += h * (weight[0] * ca.sumsqr(error) + weight[2] * z[3] ** 2 + weight[3] * z[4] ** 2)
+        if k < n:
+            r = U[k]
+            w.append(r)
+            cost += h * weight[1] * r**2
+            moved = rk4(functools.partial(rhs, rate=r), z, h, substeps=1)
+            g.append(X[k + 1] - ca.vertcat(moved, length))
+            equality += [True] * 6
+        if k > 0 and clearance is not None:
+            rows = clearance.rows(z, lines[:, k - 1])[0]
+            g += rows
+            equality += [False] * len(rows)
+    nlp: dict[str, Any] = {
+        "x": ca.vertcat(*w),
+        "p": ca.vertcat(ca.vec(ref), weight, ca.vec(lines)),
+        "f": cost,
+        "g": ca.vertcat(*g),
+    }
+    plugin, options = REFINE_SOLVERS[solver](equality)
+    nlpsol = ca.nlpsol(f"refine_end_{solver}", plugin, nlp, options)
+    is_row = ~np.array(equality)
+    low_g, high_g = np.zeros(len(equality)), np.where(is_row, np.inf, 0.0)
     inf = np.inf
-    low_z = np.tile([-inf, -inf, -inf, -hitch_limit, -vehicle.max_steer], (n + 1, 1))
-    high_z = -low_z
-    low = np.concatenate([low_z.ravel(), np.full(n, -vehicle.max_steer_rate), [0.0]])
-    high = np.concatenate([high_z.ravel(), np.full(n, vehicle.max_steer_rate), [inf]])
-    return solver, low, high, low_g, high_g
+    z_bound = [inf, inf, inf, hitch_limit - BOUND_MARGIN, vehicle.max_steer - BOUND_MARGIN]
+    zi, li, ui = _stages()
+    high = np.full(len(li) + zi.size + len(ui), inf)
+    high[zi] = z_bound
+    high[ui] = vehicle.max_steer_rate - BOUND_MARGIN
+    return nlpsol, -high, high, low_g, high_g
+
+
+def _stages() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Indices in ``w`` of the states (N + 1, 5), of the lengths (N + 1,) and of the steer rates (N,)."""
+    n = REFINE_STEPS
+    stage = 7 * np.arange(n + 1)
+    return stage[:, None] + np.arange(5), stage + 5, stage[:-1] + 6
 
 
 def refine_end(
@@ -154,6 +223,7 @@ def refine_end(
     weights: tuple[float, float, float, float] = WEIGHTS,
     clearance: ClearanceConstraints | None = None,
     row_m: float = 0.1,
+    solver: str = "fatrop",
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """The reverse run ``configs`` (k, 4: world-frame trailer pose and hitch, k >= 2, evenly spaced in
     rear-axle distance, ``span`` m of it in all) with front steers ``steer`` (k,), solved again to end on
@@ -164,10 +234,11 @@ def refine_end(
     node kept on the free side of the separating lines of the first guess there. The rows returned are
     at most ``row_m`` of rear axle apart (the NLP's intervals integrated in as many RK4 steps). Returns
     the new rows after the first (k, 4), the steers of the first and of them (k + 1,) and the rear-axle
-    distance driven to each from the first row (k,) [m], or None when IPOPT finds no such path."""
+    distance driven to each from the first row (k,) [m], or None when ``solver`` (:data:`REFINE_SOLVERS`) finds no
+    such path."""
     n = REFINE_STEPS
     planes = 0 if clearance is None else clearance.planes
-    solver, low, high, low_g, high_g = refine_solver(vehicle, hitch_limit, planes)
+    nlpsol, low, high, low_g, high_g = refine_solver(vehicle, hitch_limit, planes, solver)
     gx, gy, gyaw = to_goal_frame(goal, configs[:, 0], configs[:, 1], configs[:, 2])
     gyaw = np.unwrap(gyaw)
     gyaw = gyaw - 2 * math.pi * round(gyaw[-1] / (2 * math.pi))  # the branch that ends near 0
@@ -182,27 +253,26 @@ def refine_end(
     guess_z += (blend * blend * (3.0 - 2.0 * blend))[:, None] * (target - guess_z[-1])
     guess_u = np.diff(guess_z[:, 4]) / (span / n)
     guess_u = np.clip(guess_u, -vehicle.max_steer_rate, vehicle.max_steer_rate)
-    guess = np.concatenate([guess_z.ravel(), guess_u, [span]])
+    zi, li, ui = _stages()
+    guess = np.empty(len(low))
+    guess[zi], guess[li], guess[ui] = guess_z, span, guess_u
     low, high = low.copy(), high.copy()
-    first = guess_z[0]
-    low[:5], high[:5] = first, first  # starts where the searched run is, steer included
-    if free_steer:
-        low[4], high[4] = -vehicle.max_steer, vehicle.max_steer
-    end = slice(5 * n, 5 * n + 5)
-    low[end] = [min(line) + settle, 0.0, 0.0, 0.0, 0.0]
-    high[end] = [max(line) + settle, 0.0, 0.0, 0.0, 0.0]
-    low[-1], high[-1] = LENGTH_RANGE[0] * span, LENGTH_RANGE[1] * span
+    fixed = zi[0, :4] if free_steer else zi[0]  # starts where the searched run is, steer included unless free
+    low[fixed] = high[fixed] = guess_z[0, : len(fixed)]
+    low[zi[-1]] = [min(line) + settle, 0.0, 0.0, 0.0, 0.0]
+    high[zi[-1]] = [max(line) + settle, 0.0, 0.0, 0.0, 0.0]
+    low[li[0]], high[li[0]] = LENGTH_RANGE[0] * span, LENGTH_RANGE[1] * span
     lines = np.zeros(0) if clearance is None else clearance.parameters(goal, guess_z, anchored=False)
     params = np.concatenate([guess_z[:, :2].ravel(), weights, lines])
-    result = solver(x0=guess, p=params, lbx=low, ubx=high, lbg=low_g, ubg=high_g)
-    if not solver.stats()["success"]:
+    result = nlpsol(x0=guess, p=params, lbx=low, ubx=high, lbg=low_g, ubg=high_g)
+    if not nlpsol.stats()["success"]:
         return None
     w = np.asarray(result["x"]).ravel()
-    z = w[: 5 * (n + 1)].reshape(n + 1, 5)
-    if not np.all(np.isfinite(z)):
+    z = w[zi]
+    if not np.all(np.isfinite(w)):
         return None
-    h = float(w[-1]) / n
-    z, driven = _densified(vehicle, z, w[5 * (n + 1) : 5 * (n + 1) + n], h, row_m)
+    h = float(w[li[0]]) / n
+    z, driven = _densified(vehicle, z, w[ui], h, row_m)
     if np.any(np.abs(z[:, 3]) > hitch_limit):  # the nodes keep it; a row between two may not
         return None
     if settle > 0.0:  # the straight stretch, hitch straight: the trailer axle moves as the rear axle
@@ -243,9 +313,10 @@ def _clearance(vehicle: VehicleTrailer) -> ClearanceConstraints:
 
 def refine_plan(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: PlannerSettings, found: Plan) -> Plan:
     """``found`` with the last ``settings.refine_m`` of its last reverse run (if the path ends in reverse)
-    replaced by :func:`refine_end`'s, when IPOPT solves it and, among obstacles, the whole path still keeps
-    ``min_clearance_m`` by the exact swept clearance; ``found`` itself otherwise. The time spent is added
-    to ``planning_s`` either way; among obstacles a further try starts only within ``time_limit_s``."""
+    replaced by :func:`refine_end`'s, when ``settings.refine_solver`` solves it and, among obstacles, the whole
+    path still keeps ``min_clearance_m`` by the exact swept clearance; ``found`` itself otherwise. The time
+    spent is added to ``planning_s`` either way; among obstacles a further try starts only within
+    ``time_limit_s``."""
     began = time.perf_counter()
     path = found.path
     direction, s = path["direction"], path["s"]
@@ -267,7 +338,7 @@ def refine_plan(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Pla
         attempts = [(w, settle, settings.min_clearance_m) for w, settle in OBSTACLE_ATTEMPTS]
         if wide > settings.min_clearance_m:
             attempts.insert(0, (OBSTACLE_WEIGHTS, SETTLE_M, wide))
-    why = "IPOPT found no path ending at the goal"
+    why = f"{settings.refine_solver} found no path ending at the goal"
     chosen: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
     for i, (weights, settle, keep) in enumerate(attempts):
         if i and found.planning_s + time.perf_counter() - began > settings.time_limit_s:
@@ -288,6 +359,7 @@ def refine_plan(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Pla
             weights=weights,
             clearance=clearance,
             row_m=settings.sample_step_m,
+            solver=settings.refine_solver,
         )
         if refined is None:
             continue

@@ -104,7 +104,8 @@ def _prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Planne
     if settings.shot_length_m:
         EndGame(vehicle, goal, settings)
     if settings.refine_m:
-        refine_solver(vehicle, vehicle.max_hitch - settings.hitch_margin, 0 if scene.is_empty else REFINE_PLANES)
+        planes = 0 if scene.is_empty else REFINE_PLANES
+        refine_solver(vehicle, vehicle.max_hitch - settings.hitch_margin, planes, settings.refine_solver)
 
 
 class _Search:

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ...checks import InputError, Integer, Real, check_fields, checked
+from ...checks import Choice, InputError, Integer, Real, check_fields, checked
 from ...model.state import wrap_angle
 
 __all__ = ["PATH_COLUMNS", "STATUSES", "Plan", "PlannerSettings", "arrived"]
@@ -21,6 +21,12 @@ PATH_COLUMNS = ("x_trailer", "y_trailer", "yaw_trailer", "hitch", "front_steer",
 
 _ANGLE = Real(0.0, math.pi, low_open=True, unit="rad")
 _WEIGHT = Real(0.0, 1000.0)
+
+
+def _refine_solvers() -> tuple[str, ...]:
+    from .refine import refine_solver_names  # (refine builds on these settings)
+
+    return refine_solver_names()
 
 
 @dataclass(frozen=True)
@@ -75,6 +81,9 @@ class PlannerSettings:
         The last this much trailer-axle path [m] of the path's last reverse run (if it ends in reverse) is
         solved again on the full model to end exactly at the goal (or on its line), hitch and steer
         straight (:mod:`~hitchpark.control.planner.refine`); 0: the path ends where the search stopped.
+    refine_solver : str
+        The solver of the refined end's NLP: ``fatrop`` (on its stages) or ``ipopt`` (the reference), the
+        same optimum (:data:`~hitchpark.control.planner.refine.REFINE_SOLVERS`).
     goal_line_from_m, goal_line_m : float
         The path may end anywhere on the goal line from ``goal_line_from_m`` to ``goal_line_m`` ahead of
         the goal [m] (within the goal tolerance of that segment, heading along it, hitch straight): the
@@ -124,6 +133,7 @@ class PlannerSettings:
     goal_tolerance_yaw: float = checked(math.radians(3.0), _ANGLE)
     goal_tolerance_hitch: float = checked(math.radians(3.0), _ANGLE)
     refine_m: float = checked(20.0, Real(0.0, 100.0, unit="m"))
+    refine_solver: str = checked("fatrop", Choice(_refine_solvers))
     goal_line_from_m: float = checked(0.0, Real(0.0, 100.0, unit="m"))
     goal_line_m: float = checked(0.0, Real(0.0, 100.0, unit="m"))
     min_clearance_m: float = checked(0.2, Real(0.0, 10.0, unit="m"))
