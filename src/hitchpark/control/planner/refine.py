@@ -31,7 +31,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from ...checks import InputError
+from ...checks import check_choice
 from ...model.collision import swept_clearance
 from ...model.integrate import rk4
 from ...model.kinematics import full_rhs
@@ -127,8 +127,10 @@ def _ipopt(equality: list[bool]) -> tuple[str, dict[str, Any]]:
 
 
 #: The solvers of the refinement NLP by name (``PlannerSettings.refine_solver``): each gives CasADi's plugin
-#: and options from the rows of ``g`` that are equalities. In-process: nothing to compile (the 80-step NLP
-#: took 29 s to compile for IPOPT, 65 s among obstacles, and 30 s as a whole generated fatrop solver).
+#: and options from the rows of ``g`` that are equalities. Not the NMPC's routes (:mod:`..solvers`): theirs
+#: are tuned to start from a warm start near the bounds, this NLP starts from the searched run. In-process:
+#: nothing to compile (the 80-step NLP took 29 s to compile for IPOPT, 65 s among obstacles, and 30 s as a
+#: whole generated fatrop solver).
 REFINE_SOLVERS: dict[str, Callable[[list[bool]], tuple[str, dict[str, Any]]]] = {"fatrop": _fatrop, "ipopt": _ipopt}
 
 
@@ -151,8 +153,7 @@ def refine_solver(
     X_1..X_N (:class:`~hitchpark.control.clearance.ClearanceConstraints`: ``planes`` per body). See
     :func:`_stages` for the indices of the parts of ``w``.
     """
-    if solver not in REFINE_SOLVERS:
-        raise InputError(f"planner.refine_solver must be one of {', '.join(REFINE_SOLVERS)}, got {solver!r}")
+    check_choice("planner.refine_solver", solver, REFINE_SOLVERS)  # (refine_end may be called directly)
     n = REFINE_STEPS
     X = [ca.SX.sym(f"X{k}", 6) for k in range(n + 1)]
     U = [ca.SX.sym(f"U{k}") for k in range(n)]
