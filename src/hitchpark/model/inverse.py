@@ -8,6 +8,7 @@ floats, NumPy arrays (broadcast) or CasADi symbols.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import casadi as ca
@@ -33,7 +34,9 @@ def _inputs(vehicle: Any, **values: Any) -> list[Any]:
     check_vehicle(vehicle)
     out: list[Any] = []
     for name, value in values.items():
-        if isinstance(value, ca.SX | ca.MX | ca.DM):
+        if type(value) is float and math.isfinite(value):  # the control loop's scalars, passed as they are
+            out.append(value)
+        elif isinstance(value, ca.SX | ca.MX | ca.DM):
             out.append(value)
         else:
             array = check_values(name, value)

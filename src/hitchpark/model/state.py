@@ -47,6 +47,9 @@ def clamp(value: float, low: float, high: float) -> float:
 
 def check_pose(what: str, x: Any, y: Any, yaw: Any) -> None:
     """Raise ``InputError`` unless x, y are finite within +-MAX_COORDINATE m and yaw within +-MAX_YAW rad."""
+    if type(x) is float and type(y) is float and type(yaw) is float:  # the loop's case: no messages built
+        if abs(x) <= MAX_COORDINATE and abs(y) <= MAX_COORDINATE and abs(yaw) <= MAX_YAW:  # (False for NaN)
+            return
     for name, value in (("x", x), ("y", y)):
         check_range(f"{what} {name}", value, -MAX_COORDINATE, MAX_COORDINATE, unit="m")
     check_range(f"{what} yaw", yaw, -MAX_YAW, MAX_YAW, unit=f"rad ({math.degrees(MAX_YAW):g} deg)")
