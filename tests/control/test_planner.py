@@ -11,6 +11,7 @@ import pytest
 from hitchpark.checks import InputError
 from hitchpark.control.planner import PATH_COLUMNS, Plan, PlannerSettings, plan
 from hitchpark.control.planner.dubins import dubins_words, sample_word
+from hitchpark.control.planner.endgame import EndGame
 from hitchpark.control.planner.motion import PathPursuit, PrimitiveBatch, _pursuit_step_function
 from hitchpark.control.pure_pursuit import forward_steer_limit
 from hitchpark.model import Pose, VehicleTrailer
@@ -311,3 +312,85 @@ def test_a_compiled_pursuit_chunk_follows_the_nearest_point_search_done_sample_b
             x = np.asarray(one(x, target, 0.5)).ravel()
             rows.append(x)
         np.testing.assert_allclose(compiled[r], np.array(rows), rtol=0, atol=1e-9)
+
+
+def test_a_pursuit_stopped_once_settled_is_the_start_of_the_whole_one():
+    """``settles`` stops every run at the check where it says True of a run that ended, ``within`` after as
+    many samples: either way the runs so far are those of the whole pursuit, sample for sample."""
+    runs, step = 5, 0.1
+    pursuit = PathPursuit(VEHICLE, step, runs)
+    xs = -np.arange(0.0, 12.0, step)
+    references = np.stack([np.column_stack([xs, np.full(len(xs), 0.3 * (r - 2))]) for r in range(runs)])
+    stops = np.array([-1.0, -3.37, -6.0, -0.55, -20.0])
+    start = np.array([0.0, 0.0, 0.0, 0.05, 0.0])
+
+    def ended_rows(states: np.ndarray, deviation: np.ndarray) -> np.ndarray:
+        which = np.repeat(np.arange(runs), len(states) // runs)
+        return states[:, 0] <= stops[which]
+
+    asked: list[np.ndarray] = []
+
+    def settles(run: np.ndarray) -> bool:  # True of the second run to end (run 0, past -1 m)
+        asked.append(run)
+        return len(asked) == 2
+
+    whole = pursuit.run(start, references, np.full(runs, 2.0), 0.5, ended_rows)
+    early = pursuit.run(start, references, np.full(runs, 2.0), 0.5, ended_rows, settles)
+    n = early.shape[1]
+    assert n < whole.shape[1] // 4
+    np.testing.assert_array_equal(early, whole[:, :n])
+    # Asked about each run that ended, once, with its samples up to where it ended: run 3, then run 0.
+    assert len(asked) == 2
+    for run, r in zip(asked, (3, 0), strict=True):
+        assert run[-1, 0] <= stops[r] and np.all(run[:-1, 0] > stops[r])
+        np.testing.assert_array_equal(run, whole[r, : len(run)])
+    within = pursuit.run(start, references, np.full(runs, 2.0), 0.5, ended_rows, within=25)
+    np.testing.assert_array_equal(within, whole[:, :26])  # 25 samples asked about, and the state after
+
+
+def test_the_reverse_primitives_alone_are_those_of_the_whole_batch():
+    """The opening's reverse-only search integrates the reverse half of the commands in a batch of its own."""
+    size = 7
+    whole, reverse = PrimitiveBatch(VEHICLE, 1.5, 15, 2 * size), PrimitiveBatch(VEHICLE, 1.5, 15, size)
+    commands = np.concatenate([np.linspace(-0.5, 0.5, size), np.linspace(-0.45, 0.45, size)])
+    directions = np.concatenate([np.ones(size), -np.ones(size)])
+    steer0 = np.linspace(-0.3, 0.2, 2 * size)
+    start = np.array([3.0, -1.0, 0.4, 0.25])
+    np.testing.assert_array_equal(
+        reverse.run(start, steer0[size:], commands[size:], directions[size:]),
+        whole.run(start, steer0, commands, directions)[size:],
+    )
+
+
+def test_the_dubins_runs_stopped_once_the_landing_is_settled_plan_the_same_paths(monkeypatch):
+    """In open space the Dubins runs stop once no landing still to come is shorter than one taken (or
+    than a goal-line landing taken): the planner finds the very paths it finds integrating them all."""
+    starts = [
+        State(12.0, 4.0, math.radians(30.0), math.radians(10.0)),  # a single bending reverse run
+        State(7.2, 6.1, math.radians(2.0), math.radians(20.0)),  # forward, then reverse
+        # A goal-line shot lands in 135 samples, a Dubins run in 129 (start 110 of the sweep of seed 7).
+        State(11.118740718227746, -4.444849836363771, -0.9564604615747418, 0.3965641671682158),
+    ]
+    integrated: list[int] = []
+    run = PathPursuit.run
+
+    def counted(self, *args, **kwargs):  # type: ignore[no-untyped-def]
+        path = run(self, *args, **kwargs)
+        integrated.append(path.shape[1])
+        return path
+
+    monkeypatch.setattr(PathPursuit, "run", counted)
+    early = [plan(VEHICLE, s, Pose(), Scene(), SETTINGS) for s in starts]
+    early_samples = sum(integrated)
+    integrated.clear()
+    shots = EndGame.dubins_shots
+    monkeypatch.setattr(
+        EndGame, "dubins_shots", lambda self, state, steer, max_length, *rest: shots(self, state, steer, max_length)
+    )
+    whole = [plan(VEHICLE, s, Pose(), Scene(), SETTINGS) for s in starts]
+    assert early_samples < sum(integrated)
+    for a, b in zip(early, whole, strict=True):
+        assert a.status == b.status == "found"
+        assert a.path.keys() == b.path.keys()
+        for name in a.path:
+            np.testing.assert_array_equal(a.path[name], b.path[name])

@@ -18,6 +18,7 @@ at every sample before it; the caller screens collisions and confirms the swept 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -77,10 +78,20 @@ class EndGame:
         start = np.array([gx, gy, gyaw, state[3], steer])
         return self._landings(self.line.run(start, s.virtual_limit, s.shot_length_m, self._lines_ended))
 
-    def dubins_shots(self, state: np.ndarray, steer: float, max_length: float) -> list[Landing]:
+    def dubins_shots(
+        self,
+        state: np.ndarray,
+        steer: float,
+        max_length: float,
+        takes: Callable[[Landing], bool] | None = None,
+        within: int | None = None,
+    ) -> list[Landing]:
         """Dubins shots from ``state`` with the front steer ``steer``, shortest first.
 
-        Only references up to ``max_length`` (trailer axle, to the goal) are pursued.
+        Only references up to ``max_length`` (trailer axle, to the goal) are pursued. A caller that takes
+        the shortest landing it accepts can say which it accepts (``takes``) and how long a landing it has
+        already (``within``, in samples): the pursuit then stops once no landing still to come can be
+        shorter (:meth:`~.motion.PathPursuit.run`), and every landing up to there is in the answer.
         """
         s = self.settings
         gx, gy, gyaw = self.in_goal_frame(state)
@@ -108,7 +119,13 @@ class EndGame:
         padded = np.stack([np.vstack([r, np.repeat(r[-1:], longest - len(r), axis=0)]) for r in references])
         start = np.array([gx, gy, gyaw, state[3], steer])
         lookaheads = np.full(self.pursuit.runs, DUBINS_LOOKAHEAD_M)
-        runs = self.pursuit.run(start, padded, lookaheads, s.virtual_limit, self._dubins_ended)
+        settles = None
+        if takes is not None:
+
+            def settles(run: np.ndarray) -> bool:  # a run that ended: a landing the caller takes?
+                return bool(self.at_goal(run[-1])) and takes(self._world(run[1:]))
+
+        runs = self.pursuit.run(start, padded, lookaheads, s.virtual_limit, self._dubins_ended, settles, within)
         return self._landings(runs)
 
     def dubins_estimate(self, state: np.ndarray) -> float:
@@ -155,13 +172,14 @@ class EndGame:
                 continue
             found.append(part)
         found.sort(key=len)
+        return [self._world(part) for part in found]
+
+    def _world(self, part: np.ndarray) -> Landing:
+        """A landing's samples (goal frame, (k, 5)) in the world frame, and its front steer."""
         goal = self.goal
         c, sn = math.cos(goal.yaw), math.sin(goal.yaw)
-        landings = []
-        for part in found:
-            world = part[:, :4].copy()
-            world[:, 0] = goal.x + c * part[:, 0] - sn * part[:, 1]
-            world[:, 1] = goal.y + sn * part[:, 0] + c * part[:, 1]
-            world[:, 2] = part[:, 2] + goal.yaw
-            landings.append((world, part[:, 4]))
-        return landings
+        world = part[:, :4].copy()
+        world[:, 0] = goal.x + c * part[:, 0] - sn * part[:, 1]
+        world[:, 1] = goal.y + sn * part[:, 0] + c * part[:, 1]
+        world[:, 2] = part[:, 2] + goal.yaw
+        return world, part[:, 4]

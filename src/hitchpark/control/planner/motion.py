@@ -283,6 +283,8 @@ class PathPursuit:
         lookaheads: np.ndarray,
         limit: float,
         ended: Callable[[np.ndarray, np.ndarray], np.ndarray],
+        settles: Callable[[np.ndarray], bool] | None = None,
+        within: int | None = None,
     ) -> np.ndarray:
         """(x, y, yaw, hitch, steer) of each run from ``start`` (5,): shape (runs, samples + 1, 5).
 
@@ -292,6 +294,10 @@ class PathPursuit:
         every run has, or at the end of the references. ``ended`` judges each row alone (states (n, 5),
         deviations (n,)): it is asked about :data:`CHECK_EVERY` samples of every run at once (the samples
         one compiled call integrates), and a run that ended is then given as if it had been stopped there.
+
+        For a caller that wants the run that ends first: all stop once ``settles`` says True of a run that
+        ended (its samples up to where it ended, (k + 1, 5)), or after ``within`` samples. Every run that
+        ends within the samples integrated so far is in the answer, as it would have been otherwise.
         """
         runs, m = references.shape[0], references.shape[1]
         if runs != self.runs:
@@ -309,6 +315,8 @@ class PathPursuit:
         end = np.full(runs, -1)  # the sample where each run ended (-1: not yet)
         checked = 0  # samples asked about so far
         total = m + self.WINDOW  # samples whose nearest point is searched, at most
+        if within is not None:
+            total = min(total, within)
         stopped = False
         while len(deviation) < total and not stopped:
             out, nearest, far = chunk(x, nearest, table, ahead, m, limit)
@@ -317,8 +325,9 @@ class PathPursuit:
             for j in range(min(every, total - len(deviation))):
                 deviation.append(far[:, j])
                 if len(deviation) - checked == every:
+                    before = end >= 0
                     checked = self._ended(states, deviation, checked, end, ended)
-                    if (end >= 0).all():
+                    if (end >= 0).all() or self._settled(states, end, before, settles):
                         stopped = True
                         break
                 states.append(block[:, j, :])
@@ -331,6 +340,18 @@ class PathPursuit:
         for r in np.flatnonzero(end >= 0):
             path[r, end[r] + 1 :] = path[r, end[r]]
         return path
+
+    @staticmethod
+    def _settled(
+        states: list[np.ndarray], end: np.ndarray, before: np.ndarray, settles: Callable[[np.ndarray], bool] | None
+    ) -> bool:
+        """Whether ``settles`` says True of a run that ended since ``before`` (each asked once, in run order)."""
+        if settles is None:
+            return False
+        for r in np.flatnonzero((end >= 0) & ~before):
+            if settles(np.stack([s[r] for s in states[: end[r] + 1]])):
+                return True
+        return False
 
     @staticmethod
     def _ended(

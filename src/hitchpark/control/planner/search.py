@@ -15,7 +15,7 @@ from ...model.scene import Scene
 from ...model.state import Pose, State, check_goal, check_state, to_goal_frame
 from ...model.vehicle import VehicleTrailer, check_vehicle
 from ..pure_pursuit import forward_steer_limit
-from .endgame import EndGame
+from .endgame import EndGame, Landing
 from .grid import Discs, HolonomicHeuristic, distance_grid
 from .heuristic import TrailerTable, trailer_table
 from .motion import PrimitiveBatch
@@ -100,7 +100,8 @@ def _prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Planne
     PrimitiveBatch(
         vehicle, OPENING_FORWARD_M, round(OPENING_FORWARD_M / settings.sample_step_m), settings.steer_samples
     )
-    PrimitiveBatch(vehicle, settings.primitive_length_m, settings.samples, 2 * settings.steer_samples)
+    for size in (2 * settings.steer_samples, settings.steer_samples):  # all primitives, the reverse ones
+        PrimitiveBatch(vehicle, settings.primitive_length_m, settings.samples, size)
     if settings.shot_length_m:
         EndGame(vehicle, goal, settings)
     if settings.refine_m:
@@ -148,6 +149,7 @@ class _Search:
         self.directions = np.concatenate([np.ones(s.steer_samples), -np.ones(s.steer_samples)])
         self.straight_back = s.steer_samples + int(np.argmin(np.abs(reverse)))  # the reverse command nearest 0
         self.batch = PrimitiveBatch(self.vehicle, s.primitive_length_m, s.samples, 2 * s.steer_samples)
+        self.reverse_batch = PrimitiveBatch(self.vehicle, s.primitive_length_m, s.samples, s.steer_samples)
         self.steer_samples_forward = forward
         self.endgame = EndGame(self.vehicle, self.goal, s) if s.shot_length_m else None
 
@@ -293,6 +295,10 @@ class _Search:
         most nodes expanded.
         """
         s = self.settings
+        # The reverse primitives are the second half of the commands.
+        pick = slice(s.steer_samples if reverse_only else 0, None)
+        commands, dirs = self.commands[pick], self.directions[pick]
+        batch = self.reverse_batch if reverse_only else self.batch
         heap: list[tuple[float, int]] = [(h_start, 0)]
         best_g: dict[tuple[int, int, int, int], float] = {self._key(self.start): 0.0}
         closed: set[tuple[int, int, int, int]] = set()
@@ -317,15 +323,12 @@ class _Search:
             # Forward primitives hold a front steer, reverse ones a virtual steer (Eq. 45). The steer carries
             # on within a direction; at a change of direction (at standstill) it is set to what the command
             # asks at once.
-            dirs = self.directions
-            steer0 = self._initial_steer(float(node.state[3]))
+            steer0 = self._initial_steer(float(node.state[3]))[pick]
             steer0[dirs == node.direction] = node.steer
-            motions = self.batch.run(node.state, steer0, self.commands, dirs)
+            motions = batch.run(node.state, steer0, commands, dirs)
             ok = np.all(np.abs(motions[:, 1:, 3]) <= self.hitch_limit, axis=1) & np.all(
                 np.isfinite(motions), axis=(1, 2)
             )
-            if reverse_only:
-                ok &= dirs < 0
             ok &= self._clear(motions)
             if not ok.any():
                 continue
@@ -383,18 +386,35 @@ class _Search:
             steer = float(self._initial_steer(float(node.state[3]))[self.straight_back])
         landings = self.endgame.line_shots(node.state, steer)
         if dubins:
-            landings += self.endgame.dubins_shots(node.state, steer, max_length)
+            takes, within = None, None
+            if self.scene.is_empty:
+                # Nothing but its length and the search's bounds decides whether a landing is taken here, so
+                # the Dubins runs can stop once none still to come is shorter than one that is.
+                def takes(landing: Landing) -> bool:
+                    return not self._too_long(node, landing[0], max_length) and self._fast_clear(node, landing[0])
+
+                within = min((len(landing[0]) for landing in landings if takes(landing)), default=None)
+            landings += self.endgame.dubins_shots(node.state, steer, max_length, takes, within)
         for world, steers in sorted(landings, key=lambda landing: len(landing[0])):
-            xy = np.vstack([node.state[None, :2], world[:, :2]])
-            if np.hypot(*np.diff(xy, axis=0).T).sum() > max_length:
+            if self._too_long(node, world, max_length):
                 break
-            fast = self._clear(np.vstack([node.state[None, :], world])[None])[0]
+            fast = self._fast_clear(node, world)
             if not fast and (self.scene.is_empty or not self._exactly_clear(world)):
                 continue
             nodes.append(Node(world[-1], float(steers[-1]), -1, 0.0, index, world, steers))
             if self._confirmed(nodes, len(nodes) - 1):
                 return len(nodes) - 1
         return None
+
+    @staticmethod
+    def _too_long(node: Node, world: np.ndarray, max_length: float) -> bool:
+        """A landing's samples ``world`` from ``node`` run longer than ``max_length`` (trailer axle)."""
+        xy = np.vstack([node.state[None, :2], world[:, :2]])
+        return bool(np.hypot(*np.diff(xy, axis=0).T).sum() > max_length)
+
+    def _fast_clear(self, node: Node, world: np.ndarray) -> bool:
+        """A landing's samples ``world`` from ``node`` keep clear by the fast check (:meth:`_clear`)."""
+        return bool(self._clear(np.vstack([node.state[None, :], world])[None])[0])
 
     def _exactly_clear(self, samples: np.ndarray) -> bool:
         """Samples (k, 4) keep ``min_clearance_m`` by the exact swept clearance (a landing the fast check
