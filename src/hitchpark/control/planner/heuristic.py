@@ -82,7 +82,8 @@ class TrailerTable:
         j = np.floor((y - self.origin[1]) / self.cell).astype(np.int64)
         k = np.round(np.asarray(yaw) / (2 * math.pi / nk)).astype(np.int64) % nk
         inside = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
-        return np.where(inside, (np.clip(i, 0, nx - 1) * ny + np.clip(j, 0, ny - 1)) * nk + k, -1)
+        i, j = np.minimum(np.maximum(i, 0), nx - 1), np.minimum(np.maximum(j, 0), ny - 1)  # np.clip, cheaper
+        return np.where(inside, (i * ny + j) * nk + k, -1)
 
     def __call__(self, x: np.ndarray, y: np.ndarray, yaw: np.ndarray) -> np.ndarray:
         """Cost-to-go [m] at parking-frame poses; ``nan`` outside the table."""

@@ -197,7 +197,7 @@ class _Search:
         v = self.vehicle
         sn, c, t = math.sin(hitch), math.cos(hitch), np.tan(self.commands)
         reverse = np.arctan(v.wheelbase / v.hitch_offset * (sn - c * t) / (c + sn * t))  # Eq. (45)
-        return np.where(self.directions > 0, self.commands, np.clip(reverse, -v.max_steer, v.max_steer))
+        return np.where(self.directions > 0, self.commands, np.minimum(np.maximum(reverse, -v.max_steer), v.max_steer))
 
     def _heuristic(self, states: np.ndarray) -> np.ndarray:
         s = self.settings
