@@ -394,3 +394,26 @@ def test_the_dubins_runs_stopped_once_the_landing_is_settled_plan_the_same_paths
         assert a.path.keys() == b.path.keys()
         for name in a.path:
             np.testing.assert_array_equal(a.path[name], b.path[name])
+
+
+def test_the_goal_line_shots_ended_test_judges_each_sample_once_as_if_all_were_judged_again():
+    """The goal-line shots are asked whether they ended as they grow by chunks; judging only the new
+    samples gives what judging the whole runs again gives: each run arrived (after its start) or past the
+    hitch limit at some sample, or lost at its last."""
+    endgame = EndGame(VEHICLE, Pose(), SETTINGS)
+    rng = np.random.default_rng(3)
+    answers = set()
+    for _ in range(40):
+        runs = np.zeros((3, 121, 5))
+        runs[:, :, 0] = np.linspace(rng.uniform(2.0, 8.0), rng.uniform(-1.0, 1.0), 121)
+        runs[:, :, 3] = rng.normal(0.0, 0.5, (3, 121)) * (rng.random((3, 1)) < 0.5)  # some pass the limit
+        arrive = rng.integers(0, 121, 3)
+        runs[np.arange(3), arrive] = 0.0  # a sample at the goal (the start's does not count)
+        ended = endgame._lines_ended()
+        for k in (41, 81, 121):
+            part = runs[:, :k]
+            over = (np.abs(part[:, :, 3]) > endgame.hitch_limit).any(axis=1) | endgame._lost(part[:, -1])
+            expected = bool((over | endgame.at_goal(part[:, 1:]).any(axis=1)).all())
+            assert ended(part) == expected
+            answers.add(expected)
+    assert answers == {False, True}

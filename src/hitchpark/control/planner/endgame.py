@@ -76,7 +76,7 @@ class EndGame:
         if gx <= 0.0 or abs(gyaw) > s.shot_max_heading or math.hypot(gx, gy) > s.shot_length_m:
             return []
         start = np.array([gx, gy, gyaw, state[3], steer])
-        return self._landings(self.line.run(start, s.virtual_limit, s.shot_length_m, self._lines_ended))
+        return self._landings(self.line.run(start, s.virtual_limit, s.shot_length_m, self._lines_ended()))
 
     def dubins_shots(
         self,
@@ -152,10 +152,22 @@ class EndGame:
             | ~np.all(np.isfinite(states), axis=1)
         )
 
-    def _lines_ended(self, runs: np.ndarray) -> bool:
-        """No goal-line run can still arrive: each has arrived or is lost at some sample."""
-        over = (np.abs(runs[:, :, 3]) > self.hitch_limit).any(axis=1) | self._lost(runs[:, -1, :])
-        return bool((over | self.at_goal(runs[:, 1:]).any(axis=1)).all())
+    def _lines_ended(self) -> Callable[[np.ndarray], bool]:
+        """``ended`` of one goal-line shot (:meth:`.motion.GoalShot.run`), asked about its runs as they grow:
+        no run can still arrive, each has arrived (after its start) or passed the hitch limit at some sample,
+        or is lost at its last. Each sample is judged once."""
+        judged = 0  # samples of the runs judged so far
+        done = np.zeros(len(self.line.lookaheads), dtype=bool)  # per run: arrived or past the hitch limit
+
+        def ended(runs: np.ndarray) -> bool:
+            nonlocal judged
+            new = runs[:, judged:]
+            done[:] |= (np.abs(new[:, :, 3]) > self.hitch_limit).any(axis=1)
+            done[:] |= self.at_goal(new[:, 1:] if judged == 0 else new).any(axis=1)
+            judged = runs.shape[1]
+            return bool((done | self._lost(runs[:, -1, :])).all())
+
+        return ended
 
     def _dubins_ended(self, states: np.ndarray, deviation: np.ndarray) -> np.ndarray:
         return self.at_goal(states) | self._lost(states) | (deviation > DUBINS_MAX_DEVIATION_M)

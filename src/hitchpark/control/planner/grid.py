@@ -108,8 +108,8 @@ class DistanceGrid:
         self.origin = np.array([xmin, ymin])
         self.shape = (max(1, math.ceil((xmax - xmin) / cell)), max(1, math.ceil((ymax - ymin) / cell)))
         self.error = cell * math.sqrt(2.0)  # the grid's distance exceeds the true one by at most this
-        if scene.is_empty:
-            self.distance = np.full(self.shape, np.inf)
+        if scene.is_empty:  # all free: a read-only view of one number, not megabytes filled each plan
+            self.distance = np.broadcast_to(np.inf, self.shape)
             return
         xs = xmin + (np.arange(self.shape[0]) + 0.5) * cell
         ys = ymin + (np.arange(self.shape[1]) + 0.5) * cell
@@ -125,7 +125,7 @@ class DistanceGrid:
         if blocked.any():
             self.distance = ndimage.distance_transform_edt(~blocked) * cell
         else:
-            self.distance = np.full(self.shape, np.inf)
+            self.distance = np.broadcast_to(np.inf, self.shape)
         self.distance.flags.writeable = False  # shared between plans (distance_grid)
 
     def lookup(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:

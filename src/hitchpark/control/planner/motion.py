@@ -234,7 +234,8 @@ class GoalShot:
         """(x, y, yaw, hitch, steer) of each run from ``start`` (5,) in the goal frame: (runs, samples + 1, 5).
 
         Integrates chunk after chunk up to ``length`` metres, and stops early once ``ended`` says of the
-        runs so far (an array like the result) that none can still arrive.
+        runs so far (an array like the result, asked again as it grows by each chunk) that none can still
+        arrive.
         """
         n, chunk = len(self.lookaheads), self.CHUNK
         lookaheads = np.tile(self.lookaheads, chunk)[None, :]
