@@ -377,7 +377,8 @@ class _Search:
     def _land(self, nodes: list[Node], index: int, dubins: bool, max_length: float) -> int | None:
         """End-games from node ``index`` (:mod:`.endgame`); the new goal node's index if one lands clear.
 
-        Runs longer than ``max_length`` (trailer axle) are not taken.
+        The landings are tried shortest (in samples) first; the first longer than ``max_length`` (trailer
+        axle) ends the tries.
         """
         assert self.endgame is not None
         node = nodes[index]
