@@ -14,7 +14,7 @@ from hitchpark.control.planner.dubins import dubins_words, sample_word
 from hitchpark.control.planner.endgame import EndGame
 from hitchpark.control.planner.motion import PathPursuit, PrimitiveBatch, _pursuit_step_function
 from hitchpark.control.pure_pursuit import forward_steer_limit
-from hitchpark.model import Pose, VehicleTrailer
+from hitchpark.model import Pose, VehicleTrailer, front_steer_from_virtual, full_rhs
 from hitchpark.model.collision import swept_clearance
 from hitchpark.model.integrate import step_full
 from hitchpark.model.scene import Obstacle, Scene
@@ -312,6 +312,43 @@ def test_a_compiled_pursuit_chunk_follows_the_nearest_point_search_done_sample_b
             x = np.asarray(one(x, target, 0.5)).ravel()
             rows.append(x)
         np.testing.assert_allclose(compiled[r], np.array(rows), rtol=0, atol=1e-9)
+
+
+def test_the_pursuit_steers_as_pure_pursuit_written_with_angles():
+    """The runs' right-hand side takes the virtual steer's tangent from the bearing's sine (no angle): one RK4
+    step of it is one of pure pursuit written with angles, the bearing an arctangent wrapped to +-pi, the
+    virtual steer the arctangent of L_T times the curvature 2 sin(alpha) / l_d clipped to +-limit, then Eq.
+    (45), on random states and points in every direction (many at the limit, some straight ahead)."""
+    step, limit, v = 0.1, 0.5, VEHICLE
+    one = _pursuit_step_function(v, step)
+
+    def rhs(x: np.ndarray, point: np.ndarray) -> np.ndarray:
+        dx, dy = point[0] - x[0], point[1] - x[1]
+        bearing = math.atan2(dy, dx) - (x[2] + math.pi)
+        alpha = math.atan2(math.sin(bearing), math.cos(bearing))
+        virtual = math.atan(-2.0 * v.trailer_length * math.sin(alpha) / max(math.hypot(dx, dy), 1e-6))
+        virtual = min(max(virtual, -limit), limit)
+        front = min(max(front_steer_from_virtual(v, x[3], virtual), -v.max_steer), v.max_steer)  # Eq. (45)
+        rate = min(max((front - x[4]) / step, -v.max_steer_rate), v.max_steer_rate)
+        return np.append(full_rhs(v, x[:4], np.array([-1.0, x[4]])), rate)
+
+    rng = np.random.default_rng(12)
+    clipped = 0
+    for _ in range(300):
+        x = np.array([*rng.uniform(-5.0, 5.0, 2), rng.uniform(-math.pi, math.pi), *rng.uniform(-0.8, 0.8, 2)])
+        heading = x[2] + math.pi + rng.choice([rng.uniform(-math.pi, math.pi), 0.0])  # some dead astern
+        point = x[:2] + rng.uniform(0.3, 8.0) * np.array([math.cos(heading), math.sin(heading)])
+        k1 = rhs(x, point)
+        k2 = rhs(x + 0.5 * step * k1, point)
+        k3 = rhs(x + 0.5 * step * k2, point)
+        k4 = rhs(x + step * k3, point)
+        expected = x + step / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        np.testing.assert_allclose(np.asarray(one(x, point, limit)).ravel(), expected, rtol=0, atol=1e-12)
+        dx, dy = point - x[:2]
+        clipped += abs(2.0 * v.trailer_length * (dx * math.sin(x[2]) - dy * math.cos(x[2]))) > math.tan(limit) * (
+            dx * dx + dy * dy
+        )
+    assert 30 < clipped < 270  # both sides of the limit were tried
 
 
 def test_a_pursuit_stopped_once_settled_is_the_start_of_the_whole_one():

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import casadi as ca
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings
@@ -25,6 +26,7 @@ from hitchpark.model import (
     virtual_steer_bounds,
     virtual_steer_from_front,
 )
+from hitchpark.model.inverse import front_steer_from_virtual_tangent
 
 ANGLE_TOL = 1e-9
 
@@ -81,6 +83,32 @@ def test_eq45_equals_its_simplified_form(vehicle, pair):
     L, L_H = vehicle.wheelbase, vehicle.hitch_offset
     expected = math.atan(L / L_H * math.tan(hitch - virtual))
     assert front_steer_from_virtual(vehicle, hitch, virtual) == pytest.approx(expected, abs=ANGLE_TOL)
+
+
+@given(vehicle=vehicles, pair=hitch_and_virtual_steer())
+def test_eq45_from_the_tangent_is_eq45_from_the_angle(vehicle, pair):
+    """The same operations once the tangent is taken: equal to the last bit, on floats, arrays and symbols."""
+    hitch, virtual = pair
+    assert front_steer_from_virtual_tangent(vehicle, hitch, math.tan(virtual)) == front_steer_from_virtual(
+        vehicle, hitch, virtual
+    )
+    hitches_, virtuals = np.array([hitch, -hitch, 0.0]), np.array([virtual, -virtual, 0.0])
+    np.testing.assert_array_equal(
+        front_steer_from_virtual_tangent(vehicle, hitches_, np.tan(virtuals)),
+        front_steer_from_virtual(vehicle, hitches_, virtuals),
+    )
+    h, t = ca.SX.sym("h"), ca.SX.sym("t")
+    symbolic = ca.Function("eq45", [h, t], [front_steer_from_virtual_tangent(vehicle, h, t)])
+    assert float(symbolic(hitch, math.tan(virtual))) == pytest.approx(
+        front_steer_from_virtual(vehicle, hitch, virtual), abs=1e-15
+    )
+
+
+def test_eq45_from_the_tangent_refuses_what_eq45_refuses(table4):
+    with pytest.raises(InputError, match="tan_virtual"):
+        front_steer_from_virtual_tangent(table4, 0.1, math.nan)
+    with pytest.raises(InputError, match="hitch_offset"):
+        front_steer_from_virtual_tangent(VehicleTrailer(hitch_offset=0.0), 0.1, 0.2)
 
 
 @given(vehicle=vehicles, hitch=hitches, front=degrees_between(-89.0, 89.0))

@@ -266,11 +266,11 @@ class RecedingHorizon:
             w, cost = np.asarray(sol["x"]).ravel(), float(sol["f"])
         except RuntimeError as exc:  # CasADi raises on evaluation errors (e.g. NaN in a function)
             return False, f"solver error: {exc}".splitlines()[0], np.full(len(w0), np.nan), math.nan
-        if ok and not (np.all(np.isfinite(w)) and math.isfinite(cost)):
+        if ok and not (np.isfinite(w).all() and math.isfinite(cost)):
             ok, status = False, "non-finite solution"
         if ok:
             lam_x, lam_g = np.asarray(sol["lam_x"], dtype=float).ravel(), np.asarray(sol["lam_g"], dtype=float).ravel()
-            if np.all(np.isfinite(lam_x)) and np.all(np.isfinite(lam_g)):
+            if np.isfinite(lam_x).all() and np.isfinite(lam_g).all():
                 self._last_duals = (lam_x, lam_g)
         return ok, status, w, cost
 

@@ -21,6 +21,7 @@ from .vehicle import VehicleTrailer, check_vehicle
 __all__ = [
     "actual_virtual_steer",
     "front_steer_from_virtual",
+    "front_steer_from_virtual_tangent",
     "rear_speed_from_trailer_speed",
     "trailer_speed_from_virtual",
     "vehicle_yaw_rate_from_virtual",
@@ -55,9 +56,21 @@ def front_steer_from_virtual(vehicle: VehicleTrailer, hitch_angle: Any, virtual_
     Needs L_H > 0. Equivalent to tan(delta_f) = (L / L_H) tan(hitch - delta_T).
     """
     hitch_angle, virtual_steer = _inputs(vehicle, hitch_angle=hitch_angle, virtual_steer=virtual_steer)
+    return _front_steer(vehicle, hitch_angle, ops(hitch_angle, virtual_steer).tan(virtual_steer))
+
+
+def front_steer_from_virtual_tangent(vehicle: VehicleTrailer, hitch_angle: Any, tan_virtual: Any) -> Any:
+    """Eq. (45) from tan(delta_T) rather than delta_T: for a caller that has the tangent (a pure pursuit's
+    curvature times L_T, Eq. 42) and need not compute the angle to take its tangent again."""
+    hitch_angle, tan_virtual = _inputs(vehicle, hitch_angle=hitch_angle, tan_virtual=tan_virtual)
+    return _front_steer(vehicle, hitch_angle, tan_virtual)
+
+
+def _front_steer(vehicle: VehicleTrailer, hitch_angle: Any, t: Any) -> Any:
+    """Eq. (45): delta_f from the hitch angle and t = tan(delta_T)."""
     vehicle.require_hitch_offset()
-    m = ops(hitch_angle, virtual_steer)
-    s, c, t = m.sin(hitch_angle), m.cos(hitch_angle), m.tan(virtual_steer)
+    m = ops(hitch_angle, t)
+    s, c = m.sin(hitch_angle), m.cos(hitch_angle)
     L, L_H = vehicle.wheelbase, vehicle.hitch_offset
     return m.atan(L / L_H * (s - c * t) / (c + s * t))  # Eq. (45)
 

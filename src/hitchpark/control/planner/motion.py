@@ -29,7 +29,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from ...model.inverse import front_steer_from_virtual
+from ...model.inverse import front_steer_from_virtual, front_steer_from_virtual_tangent
 from ...model.kinematics import full_rhs
 from ...model.vehicle import VehicleTrailer
 from ...native import native
@@ -65,22 +65,26 @@ def _rk4_columns(f: Callable[[ca.SX], ca.SX], x0: ca.SX, h: float, samples: int)
 
 
 def _pursuit_rhs(
-    vehicle: VehicleTrailer, x: ca.SX, tx: ca.SX | float, ty: ca.SX | float, limit: ca.SX, tau: float
+    vehicle: VehicleTrailer, x: ca.SX, tx: ca.SX | float, ty: ca.SX | float, tan_limit: ca.SX, tau: float
 ) -> ca.SX:
     """d/dt of (x, y, yaw, hitch, steer) in reverse, the trailer axle pursuing the point (``tx``, ``ty``).
 
-    Pure pursuit of the trailer axle driven backwards: the virtual steer with the curvature
-    2 sin(alpha) / l_d, alpha the bearing of the point from the backward heading and l_d its distance,
-    within +-``limit``; the trailer turns by Eq. (42), the front steer follows from Eq. (45), rate-limited
-    as in the primitives.
+    Pure pursuit of the trailer axle driven backwards: the curvature 2 sin(alpha) / l_d, alpha the bearing
+    of the point from the backward heading and l_d its distance, is the trailer's, tan(virtual steer) / L_T
+    (Eq. 42), the tangent within +-``tan_limit`` (the virtual steer within +-its angle); the front steer
+    follows from Eq. (45), rate-limited as in the primitives. With d the offset of the point,
+    sin(alpha) = (d_x sin(yaw) - d_y cos(yaw)) / l_d, so the tangent is had without an angle: no arctangent
+    of the bearing to take its sine, no arctangent of the curvature to take its tangent, no square root (an
+    RK4 step calls the trigonometric functions and sqrt 53 times instead of 76; the planner's runs spend
+    most of their time in them). l_d^2 is taken at least 1e-12 (the point within a micrometre of the axle).
     """
     dx, dy = tx - x[0], ty - x[1]
-    distance = ca.fmax(ca.sqrt(dx**2 + dy**2), 1e-6)
-    bearing = ca.atan2(dy, dx) - (x[2] + np.pi)
-    alpha = ca.atan2(ca.sin(bearing), ca.cos(bearing))
-    virtual = ca.atan(-2.0 * vehicle.trailer_length * ca.sin(alpha) / distance)
-    virtual = ca.fmin(ca.fmax(virtual, -limit), limit)
-    return _actuated_rhs(vehicle, x, commanded_steer(vehicle, x[3], virtual, -1.0), -1.0, tau)
+    lateral = dx * ca.sin(x[2]) - dy * ca.cos(x[2])  # l_d sin(alpha)
+    tan_virtual = -2.0 * vehicle.trailer_length * lateral / ca.fmax(dx**2 + dy**2, 1e-12)
+    tan_virtual = ca.fmin(ca.fmax(tan_virtual, -tan_limit), tan_limit)
+    front = front_steer_from_virtual_tangent(vehicle, x[3], tan_virtual)  # Eq. (45)
+    target = ca.fmin(ca.fmax(front, -vehicle.max_steer), vehicle.max_steer)
+    return _actuated_rhs(vehicle, x, target, -1.0, tau)
 
 
 @functools.lru_cache(maxsize=16)
@@ -93,10 +97,11 @@ def _shot_function(vehicle: VehicleTrailer, step: float, runs: int, chunk: int) 
     stop after any chunk.
     """
     x0, lookahead, limit = ca.SX.sym("x0", 5), ca.SX.sym("lookahead"), ca.SX.sym("limit")
+    tan_limit = ca.tan(limit)  # once a step, not once an evaluation of the right-hand side
 
     def rhs(x: ca.SX) -> ca.SX:
         ahead = ca.sqrt(ca.fmax(lookahead**2 - x[1] ** 2, 0.0))
-        return _pursuit_rhs(vehicle, x, x[0] - ahead, 0.0, limit, step)
+        return _pursuit_rhs(vehicle, x, x[0] - ahead, 0.0, tan_limit, step)
 
     one = ca.Function("shot_step", [x0, lookahead, limit], [_rk4_columns(rhs, x0, step, 1)[:, 1]])
     return one.map(runs).mapaccum("goal_shot", chunk)
@@ -106,9 +111,10 @@ def _shot_function(vehicle: VehicleTrailer, step: float, runs: int, chunk: int) 
 def _pursuit_step_function(vehicle: VehicleTrailer, step: float) -> ca.Function:
     """``F(x (5), target (2), limit) -> (5)``: one RK4 step of a run towards its point."""
     x0, target, limit = ca.SX.sym("x0", 5), ca.SX.sym("target", 2), ca.SX.sym("limit")
+    tan_limit = ca.tan(limit)
 
     def rhs(x: ca.SX) -> ca.SX:
-        return _pursuit_rhs(vehicle, x, target[0], target[1], limit, step)
+        return _pursuit_rhs(vehicle, x, target[0], target[1], tan_limit, step)
 
     return ca.Function("pursuit_step", [x0, target, limit], [_rk4_columns(rhs, x0, step, 1)[:, 1]])
 
