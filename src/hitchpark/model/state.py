@@ -26,6 +26,8 @@ __all__ = [
     "check_state",
     "clamp",
     "from_goal_frame",
+    "goal_frame_position",
+    "goal_frame_yaw",
     "to_goal_frame",
     "wrap_angle",
 ]
@@ -152,8 +154,19 @@ def to_goal_frame(goal: Pose, x: Any, y: Any, yaw: Any) -> tuple[Any, Any, Any]:
     if type(x) is float and type(y) is float and type(yaw) is float:  # one pose: floats, no NumPy
         ex, ey = x - goal.x, y - goal.y
         return c * ex + s * ey, -s * ex + c * ey, wrap_angle(yaw - goal.yaw)
+    return (*goal_frame_position(goal, x, y), goal_frame_yaw(goal, yaw))
+
+
+def goal_frame_position(goal: Pose, x: Any, y: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The position part of :func:`to_goal_frame` (arrays), for a caller that may not need the yaw."""
+    c, s = math.cos(goal.yaw), math.sin(goal.yaw)
     dx, dy = np.asarray(x) - goal.x, np.asarray(y) - goal.y
-    return c * dx + s * dy, -s * dx + c * dy, wrap_angle(np.asarray(yaw) - goal.yaw)
+    return c * dx + s * dy, -s * dx + c * dy
+
+
+def goal_frame_yaw(goal: Pose, yaw: Any) -> np.ndarray:
+    """The yaw part of :func:`to_goal_frame` (arrays): wrapped to [-pi, pi)."""
+    return wrap_angle(np.asarray(yaw) - goal.yaw)
 
 
 def from_goal_frame(goal: Pose, gx: Any, gy: Any, gyaw: Any) -> tuple[Any, Any, Any]:

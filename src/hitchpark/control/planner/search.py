@@ -12,7 +12,7 @@ import numpy as np
 from ...checks import InputError, check_instance
 from ...model.collision import swept_clearance
 from ...model.scene import Scene
-from ...model.state import Pose, State, check_goal, check_state, to_goal_frame
+from ...model.state import Pose, State, check_goal, check_state, goal_frame_position, goal_frame_yaw, to_goal_frame
 from ...model.vehicle import VehicleTrailer, check_vehicle
 from ..pure_pursuit import forward_steer_limit
 from .endgame import EndGame, Landing
@@ -212,8 +212,9 @@ class _Search:
         return np.asarray(s.heuristic_weight * h, dtype=float)
 
     def _at_goal(self, states: np.ndarray) -> np.ndarray:
-        gx, gy, gyaw = to_goal_frame(self.goal, states[..., 0], states[..., 1], states[..., 2])
-        return arrived(self.settings, gx, gy, gyaw, states[..., 3])
+        gx, gy = goal_frame_position(self.goal, states[..., 0], states[..., 1])
+        yaw = states[..., 2]
+        return arrived(self.settings, gx, gy, lambda: goal_frame_yaw(self.goal, yaw), states[..., 3])
 
     def _clear(self, states: np.ndarray) -> np.ndarray:
         """Per primitive (n, k+1, 4): True if samples 1..k keep clear (the fast approximation)."""

@@ -172,11 +172,20 @@ class PlannerSettings:
 
 
 def arrived(settings: PlannerSettings, gx: Any, gy: Any, gyaw: Any, hitch: Any) -> Any:
-    """Goal-frame configurations within the goal tolerance of the goal (or of its line, ``goal_line_m``)."""
+    """Goal-frame configurations within the goal tolerance of the goal (or of its line, ``goal_line_m``).
+
+    ``gyaw`` may be a function of no arguments that gives the yaws: it is called only when some
+    configuration is near enough (most of the planner's questions have none, and wrapping angles is the
+    costly part of the answer). ``hitch`` has the answer's shape.
+    """
     along = np.minimum(np.maximum(gx, settings.goal_line_from_m), settings.goal_line_m)  # np.clip, cheaper
+    near = np.hypot(np.asarray(gx) - along, gy) <= settings.goal_tolerance_m
+    if not near.any():
+        return np.broadcast_to(near, np.shape(hitch))
+    yaw = gyaw() if callable(gyaw) else gyaw
     return (
-        (np.hypot(np.asarray(gx) - along, gy) <= settings.goal_tolerance_m)
-        & (np.abs(wrap_angle(gyaw)) <= settings.goal_tolerance_yaw)
+        near
+        & (np.abs(wrap_angle(yaw)) <= settings.goal_tolerance_yaw)
         & (np.abs(hitch) <= settings.goal_tolerance_hitch)
     )
 
