@@ -13,6 +13,7 @@ from hitchpark.control.planner import PATH_COLUMNS, Plan, PlannerSettings, plan
 from hitchpark.control.planner.dubins import dubins_words, sample_word
 from hitchpark.control.planner.endgame import EndGame
 from hitchpark.control.planner.motion import PathPursuit, PrimitiveBatch, _pursuit_step_function
+from hitchpark.control.planner.settings import arrived
 from hitchpark.control.pure_pursuit import forward_steer_limit
 from hitchpark.model import Pose, VehicleTrailer, front_steer_from_virtual, full_rhs
 from hitchpark.model.collision import swept_clearance
@@ -312,6 +313,39 @@ def test_a_compiled_pursuit_chunk_follows_the_nearest_point_search_done_sample_b
             x = np.asarray(one(x, target, 0.5)).ravel()
             rows.append(x)
         np.testing.assert_allclose(compiled[r], np.array(rows), rtol=0, atol=1e-9)
+
+
+def test_the_goal_test_asks_for_the_yaws_only_when_some_configuration_is_near():
+    """``arrived`` given a function for the yaws: the tolerances' answer (near the goal or its line, the
+    yaw wrapped, the hitch), each deciding some, and the function is not called when no configuration is
+    near the goal."""
+    s = PlannerSettings()
+    rng = np.random.default_rng(4)
+    calls, decided = [], np.zeros(3, dtype=int)
+
+    def later(yaw):
+        def give():
+            calls.append(1)
+            return yaw
+
+        return give
+
+    for shape in [(), (7,), (3, 40)]:
+        for spread in (0.05, 0.3, 30.0):  # near the goal to far from it
+            gx, gy = rng.normal(0.0, spread, shape), rng.normal(0.0, spread, shape)
+            yaw = rng.normal(0.0, 0.08, shape) + 2.0 * math.pi * rng.integers(-2, 3, shape)
+            hitch = rng.normal(0.0, 0.08, shape)
+            near = np.hypot(gx - np.clip(gx, s.goal_line_from_m, s.goal_line_m), gy) <= s.goal_tolerance_m
+            heading = np.abs(np.angle(np.exp(1j * yaw))) <= s.goal_tolerance_yaw
+            straight = np.abs(hitch) <= s.goal_tolerance_hitch
+            calls.clear()
+            got = arrived(s, gx, gy, later(yaw), hitch)
+            np.testing.assert_array_equal(got, near & heading & straight)
+            np.testing.assert_array_equal(arrived(s, gx, gy, yaw, hitch), got)
+            assert np.shape(got) == shape
+            assert len(calls) == int(np.any(near))
+            decided += [np.sum(~near), np.sum(near & ~heading), np.sum(near & heading & ~straight)]
+    assert np.all(decided > 0)
 
 
 def test_the_pursuit_steers_as_pure_pursuit_written_with_angles():
