@@ -74,7 +74,7 @@ def dubins_words(start: Pose2, end: Pose2, radius: float) -> list[tuple[str, Pos
 def sample_word(start: Pose2, word: str, lengths: Pose2, radius: float, step: float) -> np.ndarray:
     """Points (x, y, heading), rows at most ``step`` apart, along a word from ``start`` (both ends included)."""
     x, y, h = start
-    rows = [(x, y, h)]
+    parts = [np.array([[x, y, h]], dtype=float)]
     for kind, length in zip(word, lengths, strict=True):
         n = max(1, math.ceil(length / step))
         s = np.arange(1, n + 1) * (length / n)
@@ -85,6 +85,6 @@ def sample_word(start: Pose2, word: str, lengths: Pose2, radius: float, step: fl
             hs = h + turn * s / radius
             xs = x + turn * radius * (np.sin(hs) - math.sin(h))
             ys = y - turn * radius * (np.cos(hs) - math.cos(h))
-        rows.extend(zip(xs, ys, hs, strict=True))
+        parts.append(np.column_stack([xs, ys, hs]))
         x, y, h = float(xs[-1]), float(ys[-1]), float(hs[-1])
-    return np.asarray(rows, dtype=float)
+    return np.concatenate(parts)
