@@ -317,31 +317,39 @@ class PathPursuit:
         chunk = self._chunk(capacity)
         x = np.repeat(np.asarray(start, dtype=float)[:, None], runs, axis=1)
         nearest = np.zeros((1, runs))
-        states = [x.T.copy()]  # sample i of every run
-        deviation: list[np.ndarray] = []  # its distance from the reference, once its nearest point is known
-        end = np.full(runs, -1)  # the sample where each run ended (-1: not yet)
-        checked = 0  # samples asked about so far
         total = m + self.WINDOW  # samples whose nearest point is searched, at most
         if within is not None:
             total = min(total, within)
+        path = np.empty((runs, total + 1, 5))  # sample i of every run, filled as they come
+        path[:, 0] = x.T
+        deviation = np.empty((runs, total))  # sample i's distance from the reference, once its nearest is known
+        samples, known = 1, 0  # samples in path, deviations known
+        end = np.full(runs, -1)  # the sample where each run ended (-1: not yet)
+        checked = 0  # samples asked about so far
         stopped = False
-        while len(deviation) < total and not stopped:
+        while known < total and not stopped:
             out, nearest, far = chunk(x, nearest, table, ahead, m, limit)
             block = np.asarray(out).reshape(5, runs, every).transpose(1, 2, 0)  # (runs, every, 5)
-            far = np.asarray(far).reshape(runs, every)
-            for j in range(min(every, total - len(deviation))):
-                deviation.append(far[:, j])
-                if len(deviation) - checked == every:
-                    before = end >= 0
-                    checked = self._ended(states, deviation, checked, end, ended)
-                    if (end >= 0).all() or self._settled(states, end, before, settles):
-                        stopped = True
-                        break
-                states.append(block[:, j, :])
+            k = min(every, total - known)
+            deviation[:, known : known + k] = np.asarray(far).reshape(runs, every)[:, :k]
+            known += k
+            if known - checked == every:  # a whole chunk: ask about it, its samples but the last in path
+                path[:, samples : samples + k - 1] = block[:, : k - 1]
+                samples += k - 1
+                before = end >= 0
+                checked = self._ended(path, deviation, checked, known, end, ended)
+                if (end >= 0).all() or self._settled(path, end, before, settles):
+                    stopped = True
+                    break
+                path[:, samples] = block[:, k - 1]
+                samples += 1
+            else:
+                path[:, samples : samples + k] = block[:, :k]
+                samples += k
             x = block[:, -1, :].T.copy()
         if not stopped:
-            self._ended(states, deviation, checked, end, ended)
-        path = np.stack(states, axis=1)  # (runs, samples, 5)
+            self._ended(path, deviation, checked, known, end, ended)
+        path = path[:, :samples].copy()  # (runs, samples, 5)
         if (end >= 0).all():
             path = path[:, : end.max() + 1]
         for r in np.flatnonzero(end >= 0):
@@ -350,32 +358,32 @@ class PathPursuit:
 
     @staticmethod
     def _settled(
-        states: list[np.ndarray], end: np.ndarray, before: np.ndarray, settles: Callable[[np.ndarray], bool] | None
+        path: np.ndarray, end: np.ndarray, before: np.ndarray, settles: Callable[[np.ndarray], bool] | None
     ) -> bool:
         """Whether ``settles`` says True of a run that ended since ``before`` (each asked once, in run order)."""
         if settles is None:
             return False
         for r in np.flatnonzero((end >= 0) & ~before):
-            if settles(np.stack([s[r] for s in states[: end[r] + 1]])):
+            if settles(path[r, : end[r] + 1].copy()):
                 return True
         return False
 
     @staticmethod
     def _ended(
-        states: list[np.ndarray],
-        deviation: list[np.ndarray],
+        path: np.ndarray,
+        deviation: np.ndarray,
         checked: int,
+        upto: int,
         end: np.ndarray,
         ended: Callable[[np.ndarray, np.ndarray], np.ndarray],
     ) -> int:
-        """Ask ``ended`` about the samples from ``checked`` on that have a deviation; note in ``end`` where each
-        run first ended. The samples asked about so far."""
-        upto = len(deviation)
+        """Ask ``ended`` about samples ``checked`` to ``upto`` (their deviations known); note in ``end`` where
+        each run first ended. The samples asked about so far."""
         if upto <= checked:
             return checked
-        block = np.stack(states[checked:upto], axis=1)  # (runs, k, 5)
+        block = path[:, checked:upto]  # (runs, k, 5)
         runs, k = block.shape[0], block.shape[1]
-        flags = np.asarray(ended(block.reshape(runs * k, 5), np.stack(deviation[checked:upto], axis=1).ravel()))
+        flags = np.asarray(ended(block.reshape(runs * k, 5), deviation[:, checked:upto].ravel()))
         flags = flags.reshape(runs, k)
         first = np.where(flags.any(axis=1), checked + np.argmax(flags, axis=1), -1)
         new = (end < 0) & (first >= 0)
