@@ -247,16 +247,17 @@ class GoalShot:
         lookaheads = np.tile(self.lookaheads, chunk)[None, :]
         limits = np.full((1, n * chunk), limit)
         x = np.repeat(np.asarray(start, dtype=float)[:, None], n, axis=1)
-        parts = [x.T[:, None, :]]
-        for _ in range(max(1, math.ceil(length / self.step / chunk))):
+        chunks = max(1, math.ceil(length / self.step / chunk))
+        runs = np.empty((n, chunks * chunk + 1, 5))  # filled chunk by chunk
+        runs[:, 0] = x.T
+        for c in range(chunks):
             out = np.asarray(self._function(x, lookaheads, limits))  # (5, chunk * n), sample-major
             block = out.reshape(5, chunk, n).transpose(2, 1, 0)
-            parts.append(block)
+            runs[:, 1 + c * chunk : 1 + (c + 1) * chunk] = block
             x = block[:, -1, :].T
-            runs = np.concatenate(parts, axis=1)
-            if ended(runs):
-                return runs
-        return np.concatenate(parts, axis=1)
+            if ended(runs[:, : 1 + (c + 1) * chunk]):
+                return runs[:, : 1 + (c + 1) * chunk]
+        return runs
 
 
 class PathPursuit:
