@@ -66,8 +66,8 @@ class EndGame:
         self.pursuit = PathPursuit(vehicle, settings.sample_step_m, runs)
 
     def in_goal_frame(self, state: np.ndarray) -> tuple[float, float, float]:
-        gx, gy, gyaw = to_goal_frame(self.goal, state[0], state[1], state[2])
-        return float(gx), float(gy), float(gyaw)
+        # As floats: to_goal_frame's scalar arithmetic, no NumPy (the same numbers).
+        return to_goal_frame(self.goal, float(state[0]), float(state[1]), float(state[2]))
 
     def line_shots(self, state: np.ndarray, steer: float) -> list[Landing]:
         """Goal-line shots from ``state`` (x, y, yaw, hitch) with the front steer ``steer``, shortest first."""
