@@ -180,6 +180,8 @@ class FullNMPC(RecedingHorizon):
         assert isinstance(ocp, FullParkingProblem)
         refs = self._references if ocp.tracking else np.zeros((ocp.horizon, 0))
         first = [self._first_now] if ocp.first_step else []
+        if ocp.clearance is None:  # open space: no lines
+            return np.concatenate([refs.ravel(), first])
         return np.concatenate([np.hstack([refs, self._lines(warm, x0, ocp)]).ravel(), first])
 
     def _cold_start(
@@ -299,9 +301,9 @@ class FullNMPC(RecedingHorizon):
         ok, status, states, inputs, cost, solve_ms = self._solve_cascade(x0, u_min, u_max, free)
         if not ok:
             return self._stop(status, cost, solve_ms, states, inputs)
-        first = x0 + self.settings.dt * np.concatenate([np.zeros(4), inputs[0]])  # the rates held for one sample
-        steer = clamp(first[STEER], -v.max_steer, v.max_steer)
-        speed = clamp(first[SPEED], self.settings.speed_min, self.settings.speed_max)
+        dt = self.settings.dt  # the rates held for one sample
+        steer = clamp(float(x0[STEER]) + dt * float(inputs[0, 0]), -v.max_steer, v.max_steer)
+        speed = clamp(float(x0[SPEED]) + dt * float(inputs[0, 1]), self.settings.speed_min, self.settings.speed_max)
         if not (math.isfinite(steer) and math.isfinite(speed)):
             return self._stop("non-finite vehicle command", cost, solve_ms, states, inputs)
         stop = abs(speed) < self.settings.stop_speed and abs(x0[SPEED]) < self.settings.stop_speed
