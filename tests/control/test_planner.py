@@ -346,6 +346,11 @@ def test_the_goal_test_asks_for_the_yaws_only_when_some_configuration_is_near():
             assert len(calls) == int(np.any(near))
             decided += [np.sum(~near), np.sum(near & ~heading), np.sum(near & heading & ~straight)]
     assert np.all(decided > 0)
+    # The answer has the inputs' shape broadcast, whichever is larger, near the goal or not.
+    for gx in (9.0, 0.0):
+        assert arrived(s, np.full(3, gx), 0.0, 0.0, 0.0).shape == (3,)
+        assert arrived(s, gx, 0.0, np.zeros((2, 3)), 0.0).shape == (2, 3)
+        assert arrived(s, gx, 0.0, 0.0, np.zeros(4)).shape == (4,)
 
 
 def test_the_pursuit_steers_as_pure_pursuit_written_with_angles():

@@ -176,13 +176,16 @@ def arrived(settings: PlannerSettings, gx: Any, gy: Any, gyaw: Any, hitch: Any) 
 
     ``gyaw`` may be a function of no arguments that gives the yaws: it is called only when some
     configuration is near enough (most of the planner's questions have none, and wrapping angles is the
-    costly part of the answer). ``hitch`` has the answer's shape.
+    costly part of the answer; a function's yaws have the shape of the other inputs broadcast).
     """
     along = np.minimum(np.maximum(gx, settings.goal_line_from_m), settings.goal_line_m)  # np.clip, cheaper
     near = np.hypot(np.asarray(gx) - along, gy) <= settings.goal_tolerance_m
     if not near.any():
-        shape = np.shape(hitch)
-        return near if near.shape == shape else np.broadcast_to(near, shape)  # (broadcast_to costs microseconds)
+        if near.shape == np.shape(hitch) and (callable(gyaw) or near.shape == np.shape(gyaw)):
+            return near  # the answer's shape already (the usual case: np.broadcast_to costs microseconds)
+        return np.broadcast_to(
+            near, np.broadcast_shapes(near.shape, np.shape(hitch), np.shape(0.0 if callable(gyaw) else gyaw))
+        )
     yaw = gyaw() if callable(gyaw) else gyaw
     return (
         near
