@@ -1,6 +1,6 @@
 """fatrop's iterations per recorded NMPC problem at several horizons, and where an iteration's time goes.
 
-    python benchmarks/fatrop_iterations.py OCP N [N ...] [--set KEY=VALUE ...] [--prediction-dt S]
+    python benchmarks/fatrop_iterations.py OCP N [N ...] [--set KEY=VALUE ...] [--prediction-dt S] [--planes P]
 
 For each horizon N, records the problems the default controller of ``OCP`` (``paper``, ``full``,
 ``obstacles`` or ``tracking``, as ``hitchpark bench`` names them) poses from the first 4 of bench's
@@ -18,7 +18,9 @@ iterations and the timed route alike; ``--floor F`` starts the generated route's
 least F (``nmpc.dual_floor``; default the controller's: 1e-9 full, 1 paper). The problems are the same
 (recorded with the default). ``--prediction-dt S`` records and solves with that prediction step instead of the
 OCP's (the full kind's is 0.3 s: N = 80 then sees 24 s ahead, N = 10 3 s); the last line compares the times of the
-first and the last horizon. A measurement, not a test.
+first and the last horizon. ``--planes P`` records and solves the obstacle OCP with P separating lines per
+body and step (``nmpc.obstacle_planes``, default 3): the rows of a stage, and their data, scale with it. A
+measurement, not a test.
 """
 
 from __future__ import annotations
@@ -56,11 +58,14 @@ def main() -> None:
     parser.add_argument("horizons", type=int, nargs="+")
     parser.add_argument("--floor", type=float, default=None, metavar="F")
     parser.add_argument("--prediction-dt", type=float, default=None, metavar="S")
+    parser.add_argument("--planes", type=int, default=None, metavar="P")
     parser.add_argument("--set", type=option, action="append", default=[], dest="options", metavar="KEY=VALUE")
     args = parser.parse_args()
     ocp = BENCH_OCPS[args.ocp]
     if args.prediction_dt is not None:
         ocp = replace(ocp, nmpc=replace(ocp.nmpc, prediction_dt=args.prediction_dt))
+    if args.planes is not None:
+        ocp = replace(ocp, nmpc=replace(ocp.nmpc, obstacle_planes=args.planes))
     times: dict[int, float] = {}
     overrides = dict(args.options)
     for n in args.horizons:
