@@ -146,6 +146,7 @@ class _Search:
         forward = np.linspace(-cap, cap, s.steer_samples)
         reverse = np.linspace(-limit, limit, s.steer_samples)
         self.commands = np.concatenate([forward, reverse])
+        self._tan_commands = np.tan(self.commands)  # Eq. (45) of each node's start steer takes their tangents
         self.directions = np.concatenate([np.ones(s.steer_samples), -np.ones(s.steer_samples)])
         self.straight_back = s.steer_samples + int(np.argmin(np.abs(reverse)))  # the reverse command nearest 0
         self.batch = PrimitiveBatch(self.vehicle, s.primitive_length_m, s.samples, 2 * s.steer_samples)
@@ -195,7 +196,7 @@ class _Search:
     def _initial_steer(self, hitch: float) -> np.ndarray:
         """The steer each command sets at standstill: the front steer itself forward, Eq. (45) in reverse."""
         v = self.vehicle
-        sn, c, t = math.sin(hitch), math.cos(hitch), np.tan(self.commands)
+        sn, c, t = math.sin(hitch), math.cos(hitch), self._tan_commands
         reverse = np.arctan(v.wheelbase / v.hitch_offset * (sn - c * t) / (c + sn * t))  # Eq. (45)
         return np.where(self.directions > 0, self.commands, np.minimum(np.maximum(reverse, -v.max_steer), v.max_steer))
 
