@@ -32,7 +32,6 @@ import numpy as np
 
 from hitchpark.app.bench import BENCH_OCPS, record_problems
 from hitchpark.control.receding import NLPProblem
-from hitchpark.control.solvers import make_solver, quiet_stderr
 from hitchpark.maneuver.process import CLEARANCE_SPARE_M
 from hitchpark.model import VehicleTrailer
 
@@ -95,15 +94,7 @@ def solve(ocp_name: str, horizon: int, path: Path, limit: int | None, repeat: in
         duals = bool(data["duals"][i])
         extra = {"lam_x0": data["lam_x0"][i], "lam_g0": data["lam_g0"][i]} if duals else {}
         problems.append(NLPProblem(**{name: data[name][i] for name in FIELDS}, **extra))
-    with quiet_stderr():
-        solver = make_solver(
-            str(settings.nmpc.solver),
-            tr.nlp,
-            list(tr.lbg == tr.ubg),
-            jit=bool(controller.settings.jit),
-            transcription=tr,
-            dual_floor=controller.settings.dual_floor,
-        )
+    solver = controller.solver  # the controller's own, as hitchpark bench times it
     inputs = [problem.inputs(duals=True) for problem in problems]
     iterations, failures = 0, 0
     start = time.perf_counter()
