@@ -23,7 +23,9 @@ A measurement, not a test. An existing FILE is not overwritten.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any, NoReturn
@@ -50,14 +52,25 @@ def record(ocp_name: str, horizon: int, path: Path) -> None:
     controller, problems = record_problems(ocp, VehicleTrailer(), ocp.starts(4), horizon)
     n_p = controller.transcription.nlp["p"].numel()
     own = [p for p in problems if len(p.p) == n_p]
+    if not own:
+        fail(f"the closed loops of {ocp_name} at N = {horizon} posed no problem to record")
     duals = np.array([p.lam_x0 is not None and p.lam_g0 is not None for p in own])
     arrays: dict[str, Any] = {name: np.stack([getattr(p, name) for p in own]) for name in FIELDS}
     for name, size in (("lam_x0", len(own[0].w0)), ("lam_g0", len(own[0].lbg))):
         arrays[name] = np.stack([np.full(size, np.nan) if getattr(p, name) is None else getattr(p, name) for p in own])
-    partial = path.with_name(path.name + ".partial.npz")
     arrays["duals"] = duals
-    np.savez(partial, **arrays)
-    partial.replace(path)
+    # Written under a name of its own, then linked to FILE only if FILE still does not exist: a user's file
+    # is never overwritten, and no half-written file is left behind.
+    handle, name = tempfile.mkstemp(suffix=".npz", prefix=f".{path.name}.", dir=path.parent)
+    partial = Path(name)
+    try:
+        with os.fdopen(handle, "wb") as out:
+            np.savez(out, **arrays)
+        os.link(partial, path)
+    except FileExistsError:
+        fail(f"{path} appeared while recording; not overwritten")
+    finally:
+        partial.unlink(missing_ok=True)
     print(f"{ocp_name} N = {horizon}: {len(own)} problems ({int(duals.sum())} with multipliers) -> {path}")
 
 
@@ -106,10 +119,15 @@ def solve(ocp_name: str, horizon: int, path: Path, limit: int | None, repeat: in
             failures += not stats.get("success", False)
     spent = time.perf_counter() - start
     calls = n * repeat
+    per_stage = 1e6 * spent / max(iterations, 1) / horizon
+    counted = (
+        f"{iterations / calls:.2f} iterations a call, {per_stage:.2f} us an iteration and stage"
+        if iterations
+        else "no iterations reported"
+    )
     print(
         f"{ocp_name} N = {horizon}, {settings.nmpc.solver}: {calls} calls, {1e3 * spent / calls:.3f} ms a call, "
-        f"{iterations / calls:.2f} iterations a call, {1e6 * spent / max(iterations, 1) / horizon:.2f} us an "
-        f"iteration and stage, {failures} failed"
+        f"{counted}, {failures} failed"
     )
 
 
@@ -122,13 +140,15 @@ def main() -> None:
     parser.add_argument("--limit", type=int, default=None, metavar="K")
     parser.add_argument("--repeat", type=int, default=1, metavar="R")
     args = parser.parse_args()
-    if not 2 <= args.horizon <= 400:
-        fail(f"the horizon must be 2 to 400 steps, got {args.horizon}")
+    if not 1 <= args.horizon <= 500:
+        fail(f"the horizon must be 1 to 500 steps (nmpc.horizon's range), got {args.horizon}")
     if (args.limit is not None and args.limit < 1) or args.repeat < 1:
         fail("--limit and --repeat take a positive number")
     if args.mode == "record":
         if args.file.exists():
             fail(f"{args.file} exists; not overwritten (remove it or name another file)")
+        if not args.file.parent.is_dir():
+            fail(f"{args.file.parent} is not a folder")
         record(args.ocp, args.horizon, args.file)
     else:
         if not args.file.is_file():

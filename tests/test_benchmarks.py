@@ -40,7 +40,7 @@ def test_replay_refuses_a_file_that_is_not_recorded_problems(tmp_path: Path) -> 
 
 def test_replay_refuses_a_bad_horizon_or_count(tmp_path: Path) -> None:
     for args, says in (
-        (("record", "paper", "1", str(tmp_path / "a.npz")), "horizon must be 2 to 400"),
+        (("record", "paper", "0", str(tmp_path / "a.npz")), "horizon must be 1 to 500"),
         (("solve", "paper", "10", str(tmp_path / "a.npz"), "--repeat", "0"), "positive number"),
     ):
         done = _replay(*args)
