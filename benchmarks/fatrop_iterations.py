@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from hitchpark.app.bench import BENCH_OCPS, _time_route, record_problems
+from hitchpark.app.bench import BENCH_OCPS, _time_route, own_problems, record_problems
 from hitchpark.control.compiled import compiled_nlpsol
 from hitchpark.control.solvers import ROUTES, make_solver, quiet_stderr
 from hitchpark.model import VehicleTrailer
@@ -71,7 +71,7 @@ def main() -> None:
     for n in args.horizons:
         controller, problems = record_problems(ocp, VehicleTrailer(), ocp.starts(4), n)
         tr = controller.transcription
-        problems = [p for p in problems if len(p.p) == tr.nlp["p"].numel()]
+        problems = own_problems(controller, problems)
         equality = list(tr.lbg == tr.ubg)
         plugin, options = ROUTES["fatrop"].factory(equality)
         with quiet_stderr():

@@ -32,9 +32,9 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from hitchpark.app.bench import BENCH_OCPS, record_problems
+from hitchpark.app.bench import BENCH_OCPS, own_problems, record_problems
 from hitchpark.control.receding import NLPProblem
-from hitchpark.maneuver.process import CLEARANCE_SPARE_M
+from hitchpark.maneuver.process import predicted_clearance_m
 from hitchpark.model import VehicleTrailer
 
 #: The OCPs whose solver can be built without a loop (tracking's parameters come from a planned path).
@@ -50,8 +50,7 @@ def fail(message: str) -> NoReturn:
 def record(ocp_name: str, horizon: int, path: Path) -> None:
     ocp = BENCH_OCPS[ocp_name]
     controller, problems = record_problems(ocp, VehicleTrailer(), ocp.starts(4), horizon)
-    n_p = controller.transcription.nlp["p"].numel()
-    own = [p for p in problems if len(p.p) == n_p]
+    own = own_problems(controller, problems)
     if not own:
         fail(f"the closed loops of {ocp_name} at N = {horizon} posed no problem to record")
     duals = np.array([p.lam_x0 is not None and p.lam_g0 is not None for p in own])
@@ -93,8 +92,7 @@ def solve(ocp_name: str, horizon: int, path: Path, limit: int | None, repeat: in
     settings = ocp.settings(horizon)
     controller, _ = record_problems(ocp, VehicleTrailer(), [], horizon)  # the controller, no loop run
     if settings.nmpc.kind == "full":  # the obstacle OCP's lines, as the planned process asks for them
-        need = settings.success.min_clearance_m + settings.process.guard_margin_m + CLEARANCE_SPARE_M
-        controller.keep_clear(ocp.starts(1)[0].scene, need)
+        controller.keep_clear(ocp.starts(1)[0].scene, predicted_clearance_m(settings))
     tr = controller.transcription
     n = len(data["p"]) if limit is None else min(limit, len(data["p"]))
     if data["p"].shape[1] != tr.nlp["p"].numel() or data["w0"].shape[1] != tr.nlp["x"].numel():

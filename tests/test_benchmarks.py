@@ -50,7 +50,7 @@ def test_replay_refuses_a_bad_horizon_or_count(tmp_path: Path) -> None:
 
 def test_replay_round_trip_of_the_paper_ocp(tmp_path: Path) -> None:
     """What ``record`` saves is what the controller posed, and ``solve`` answers it from the file."""
-    from hitchpark.app.bench import BENCH_OCPS, record_problems
+    from hitchpark.app.bench import BENCH_OCPS, own_problems, record_problems
     from hitchpark.model import VehicleTrailer
 
     path = tmp_path / "paper10.npz"
@@ -59,7 +59,7 @@ def test_replay_round_trip_of_the_paper_ocp(tmp_path: Path) -> None:
     assert not [p for p in tmp_path.iterdir() if p != path]  # no partial file left
     ocp = BENCH_OCPS["paper"]
     controller, recorded = record_problems(ocp, VehicleTrailer(), ocp.starts(4), 10)
-    problems = [p for p in recorded if len(p.p) == controller.transcription.nlp["p"].numel()]
+    problems = own_problems(controller, recorded)
     with np.load(path) as archive:
         data = dict(archive)
     assert len(data["p"]) == len(problems) > 100

@@ -259,5 +259,5 @@ def test_a_horizon_is_timed_on_the_problems_of_the_ocp_its_solver_takes():
     controller = make_nmpc(VehicleTrailer(), NMPCSettings(kind="paper"))
     n_p = controller.transcription.nlp["p"].numel()
     own, other = (NLPProblem(*(np.zeros(n) for n in (k, 3, 3, 3, 1, 1))) for k in (n_p, n_p + 6))
-    kept = bench_module._own_problems(controller, [own, other, own])
+    kept = bench_module.own_problems(controller, [own, other, own])
     assert len(kept) == 2 and all(problem is own for problem in kept)

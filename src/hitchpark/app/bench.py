@@ -46,6 +46,8 @@ __all__ = [
     "RouteBench",
     "TimedCalls",
     "bench_table",
+    "own_problems",
+    "record_problems",
     "run_bench",
     "time_interleaved",
 ]
@@ -205,7 +207,7 @@ def record_problems(
     return controller, problems
 
 
-def _own_problems(controller: TrailerNMPC | FullNMPC, problems: Sequence[NLPProblem]) -> list[NLPProblem]:
+def own_problems(controller: TrailerNMPC | FullNMPC, problems: Sequence[NLPProblem]) -> list[NLPProblem]:
     """The problems of the OCP ``controller`` solves now (the one its solver takes): not those of a tracking
     loop that fell back on the 3-stage process parked at the goal, whose parameters differ."""
     n_p = controller.transcription.nlp["p"].numel()
@@ -321,7 +323,7 @@ def bench_ocp(
     progress(f"{ocp.name}: recording the default controller on {len(starts)} closed-loop starts")
     recorder, problems = record_problems(ocp, vehicle, starts)
     tr = recorder.transcription  # it lays out the problems
-    problems = _own_problems(recorder, problems)
+    problems = own_problems(recorder, problems)
     equality = list(tr.lbg == tr.ubg)
     jobs = {}
     for name in dict.fromkeys(["ipopt", *routes]):
@@ -369,7 +371,7 @@ def bench_ocp(
     for horizon in horizons:
         progress(f"{ocp.name}: recording the default route ({default}) at N = {horizon}")
         controller, recorded = record_problems(ocp, vehicle, starts[:4], horizon)
-        horizon_jobs[str(horizon)] = (controller.solver, _own_problems(controller, recorded), math.inf)
+        horizon_jobs[str(horizon)] = (controller.solver, own_problems(controller, recorded), math.inf)
     progress(f"{ocp.name}: the default route at N = {', '.join(horizon_jobs)}, taking turns")
     timed_horizons = time_interleaved(horizon_jobs)
     scaling = {key: float(np.median(calls.wall)) for key, calls in timed_horizons.items()}

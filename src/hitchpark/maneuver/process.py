@@ -242,6 +242,12 @@ def _errors_deg(goal: Pose, state: np.ndarray) -> tuple[float, float, float]:
 CLEARANCE_SPARE_M = 0.01
 
 
+def predicted_clearance_m(settings: ManeuverSettings) -> float:
+    """How far the planned process's NMPC keeps its predicted bodies from the scene [m] (the obstacle OCP,
+    :meth:`~hitchpark.control.nmpc.FullNMPC.keep_clear`): what the guard asks, and :data:`CLEARANCE_SPARE_M`."""
+    return settings.success.min_clearance_m + settings.process.guard_margin_m + CLEARANCE_SPARE_M
+
+
 def make_process(
     vehicle: VehicleTrailer,
     settings: ManeuverSettings,
@@ -255,8 +261,7 @@ def make_process(
     if isinstance(nmpc, FullNMPC):
         # The planned process keeps the NMPC's predictions as clear of the scene as its guard asks (the
         # obstacle OCP); the staged one does not see the scene.
-        need = settings.success.min_clearance_m + settings.process.guard_margin_m + CLEARANCE_SPARE_M
-        nmpc.keep_clear(scene if planned else Scene(), need)
+        nmpc.keep_clear(scene if planned else Scene(), predicted_clearance_m(settings))
     if planned:
         return PlannedProcess(vehicle, settings, scene, nmpc, delay)
     return StagedProcess(make_stages(vehicle, settings, nmpc), hand_over=settings.nmpc.kind != "paper")

@@ -150,8 +150,8 @@ def check_goal(goal: Any) -> Pose:
 
 def to_goal_frame(goal: Pose, x: Any, y: Any, yaw: Any) -> tuple[Any, Any, Any]:
     """World pose(s) -> parking frame of ``goal`` (Fig. 5): origin at the goal, X along its heading."""
-    c, s = math.cos(goal.yaw), math.sin(goal.yaw)
     if type(x) is float and type(y) is float and type(yaw) is float:  # one pose: floats, no NumPy
+        c, s = math.cos(goal.yaw), math.sin(goal.yaw)
         ex, ey = x - goal.x, y - goal.y
         return c * ex + s * ey, -s * ex + c * ey, wrap_angle(yaw - goal.yaw)
     return (*goal_frame_position(goal, x, y), goal_frame_yaw(goal, yaw))
