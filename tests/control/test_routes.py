@@ -194,6 +194,65 @@ def test_generated_c_falls_back_to_the_fallback_solver(jit_cache):
     assert u.ok and not u.stop and u.trailer_speed < 0.0
 
 
+def _stalling_nlp():
+    """x0 + x1 >= 3 and x0 x1 = p near (1, 2): from (0, 0) the product's linearization is zero, and an SQP
+    step there goes nowhere (CasADi's sqpmethod: Search_Direction_Becomes_Too_Small)."""
+    import casadi as ca
+
+    x, p = ca.SX.sym("x", 2), ca.SX.sym("p")
+    nlp = {"x": x, "p": p, "f": (x[0] - 1) ** 2 + (x[1] - 2) ** 2, "g": ca.vertcat(x[0] + x[1], x[0] * x[1] - p)}
+    return nlp, [False, True]
+
+
+def test_generated_sqp_reports_a_solve_that_did_not_converge_as_casadis_sqp_does(jit_cache):
+    """CasADi 3.8's generated sqpmethod returned success however its iterations ended; the free-steer
+    problem of a full NMPC at N = 80 came back so with its steer at 114 rad, and the stage started at full
+    lock (issue 10's notes). Now it says what the in-process solver says."""
+    nlp, equality = _stalling_nlp()
+    generated, in_process = make_solver("sqp_c", nlp, equality), make_solver("sqp", nlp, equality)
+    assert isinstance(generated, GeneratedNLP)
+    for lbg, ubg, converges in (([3.0, -np.inf], [np.inf, -5.0], True), ([3.0, 0.0], [np.inf, 0.0], False)):
+        answers = [solver(x0=[0.0, 0.0], p=0.0, lbg=lbg, ubg=ubg) for solver in (generated, in_process)]
+        assert generated.stats()["success"] is in_process.stats()["success"] is converges
+        np.testing.assert_allclose(*(np.asarray(a["x"], dtype=float).ravel() for a in answers), atol=1e-9)
+    assert generated.stats()["return_status"] == "not converged (code 1)"
+
+
+def test_generated_sqp_out_of_iterations_fails_and_the_fallback_answers(jit_cache):
+    settings = NMPCSettings(kind="paper", solver="sqp_c", fallback_solver=None, solver_options={"max_iter": 1})
+    nmpc = TrailerNMPC(VehicleTrailer(), settings)
+    assert isinstance(nmpc.solver, GeneratedNLP)
+    u = nmpc.step(10.0, 3.5, 0.0, math.radians(10.0))
+    assert nmpc.solver.stats()["success"] is False
+    assert u.ok is False and u.stop is True and u.rear_speed == 0.0
+    nmpc = TrailerNMPC(VehicleTrailer(), replace(settings, fallback_solver="ipopt"))
+    u = nmpc.step(10.0, 3.5, 0.0, 0.0)
+    assert u.ok and not u.stop and u.trailer_speed < 0.0
+
+
+def test_a_generated_sqp_laid_out_otherwise_is_not_built(tmp_path, monkeypatch):
+    """The edit changes the solver's last return alone; where the generated code has no single convergence
+    test (another CasADi) it refuses, and no library is built: the in-process sqpmethod, which reports its
+    status, serves instead."""
+    import casadi as ca
+
+    from hitchpark.control.generated import _report_sqp_failure
+
+    nlp, equality = _stalling_nlp()
+    plugin, options = ROUTES["sqp_c"].factory(equality)
+    monkeypatch.chdir(tmp_path)  # CasADi writes into the working folder
+    ca.nlpsol("s", plugin, nlp, {**options, "error_on_fail": True}).generate("s.c", {"main": False})
+    source = (tmp_path / "s.c").read_text()
+    reported = "return pr_inf < 1e-08 && du_inf < 1e-08 ? 0 : 1;"
+    edited = _report_sqp_failure(source)
+    assert reported not in source and edited.count(reported) == 1
+    assert edited.replace(reported, "return 0;") == source
+    with pytest.raises(RuntimeError, match="convergence test"):
+        _report_sqp_failure(source.replace("du_inf < ", "du_inf <= "))
+    with pytest.raises(RuntimeError, match="does not end"):
+        _report_sqp_failure(source.replace("\n  return 0;\n}\n", "\n  return 0; }\n"))
+
+
 def test_generated_route_runs_in_process_where_nothing_compiles(tmp_path, monkeypatch):
     monkeypatch.setenv("HITCHPARK_CACHE", str(tmp_path / "cache"))
     monkeypatch.setenv("HITCHPARK_JIT", "0")

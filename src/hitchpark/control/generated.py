@@ -199,6 +199,34 @@ def _link_stagewise(source: str, functions: Mapping[str, ca.Function]) -> str | 
     return edited.replace(_ENTRY, "".join(callbacks) + "\n" + _ENTRY)
 
 
+#: The generated sqpmethod's convergence test (CasADi 3.8): the iterations end on it, on the iteration limit
+#: or on a step too small, and the generated function returns 0 after each of the three, whatever
+#: ``error_on_fail`` asks (CasADi's own sqpmethod reports the other two as failures).
+_SQP_CONVERGED = re.compile(r"if \(iter_count >= 0 && pr_inf < (\S+) && du_inf < (\S+)\) break;")
+
+#: The end of the generated sqpmethod's function: its answer copied out, then success whatever happened.
+_SQP_END = "\n  return 0;\n}\n"
+
+
+def _report_sqp_failure(source: str) -> str:
+    """The C of a generated sqpmethod solver that returns 1 unless its iterations met the tolerances.
+
+    The main loop is left only by its three tests at the top of an iteration, each after the primal and dual
+    infeasibilities of the current iterate are computed: so these meet the tolerances at the end exactly
+    when the convergence test ended it. Raises RuntimeError where the code is not laid out so (another
+    CasADi): the library is then not built, and the in-process sqpmethod, which reports its status, serves.
+    """
+    found = list(_SQP_CONVERGED.finditer(source))
+    if len(found) != 1:
+        raise RuntimeError("generated sqpmethod: no single convergence test to report failures by")
+    pr_tol, du_tol = found[0].groups()
+    end = source.find(_SQP_END, found[0].end())
+    if end < 0:
+        raise RuntimeError("generated sqpmethod: the solver's function does not end as expected")
+    converged = f"\n  return pr_inf < {pr_tol} && du_inf < {du_tol} ? 0 : 1;\n}}\n"
+    return source[:end] + converged + source[end + len(_SQP_END) :]
+
+
 def generated_nlpsol(
     name: str,
     plugin: str,
@@ -213,8 +241,9 @@ def generated_nlpsol(
     of the transcription), which fatrop's generated code then calls in place of CasADi's: code the size of
     a stage instead of the horizon's, the same numbers. A fatrop solver is linked with :data:`WARM_SOURCE`
     where it compiles, and then starts from given multipliers, each bound's at least ``dual_floor``
-    (:class:`GeneratedNLP`). Falls back to the in-process CasADi solver (the same plugin and options)
-    where nothing can be compiled.
+    (:class:`GeneratedNLP`). A generated sqpmethod reports a solve that did not converge as a failure, as
+    CasADi's own does (:func:`_report_sqp_failure`). Falls back to the in-process CasADi solver (the same
+    plugin and options) where nothing can be compiled.
     """
     compiler = resolved_compiler()
     stagewise = stages is not None and plugin == "fatrop"
@@ -227,6 +256,8 @@ def generated_nlpsol(
             functions = stages(solver, f"{name}_stage_") if stages is not None and stagewise else None
 
             def edit(source: str) -> str | None:
+                if plugin == "sqpmethod":
+                    return _report_sqp_failure(source)
                 if functions:
                     linked = _link_stagewise(source, functions)
                     if linked is None:
@@ -243,6 +274,8 @@ def generated_nlpsol(
 
         sizes = (int(nlp["x"].numel()), int(nlp["p"].numel()), int(nlp["g"].numel()))
         kind = "generated-stagewise" if stagewise else "generated"
+        if plugin == "sqpmethod":  # the libraries built before it reported every solve as a success
+            kind += "-status-" + hashlib.sha256((_SQP_CONVERGED.pattern + _SQP_END).encode()).hexdigest()[:12]
         if warm:  # the source of the warm start shapes the library too
             kind += "-warm-" + hashlib.sha256((WARM_SOURCE.read_text() + _WARM_DUALS).encode()).hexdigest()[:12]
         key = cache_key(plugin, nlp, options, kind=kind)
