@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import re
 import subprocess
 from dataclasses import replace
 
@@ -230,12 +231,13 @@ def test_generated_sqp_out_of_iterations_fails_and_the_fallback_answers(jit_cach
     assert u.ok and not u.stop and u.trailer_speed < 0.0
 
 
-def test_a_generated_sqp_laid_out_otherwise_is_not_built(tmp_path, monkeypatch):
+def test_a_generated_sqp_laid_out_otherwise_is_not_built(jit_cache, tmp_path, monkeypatch):
     """The edit changes the solver's last return alone; where the generated code has no single convergence
     test (another CasADi) it refuses, and no library is built: the in-process sqpmethod, which reports its
     status, serves instead."""
     import casadi as ca
 
+    from hitchpark.control import generated
     from hitchpark.control.generated import _report_sqp_failure
 
     nlp, equality = _stalling_nlp()
@@ -251,6 +253,13 @@ def test_a_generated_sqp_laid_out_otherwise_is_not_built(tmp_path, monkeypatch):
         _report_sqp_failure(source.replace("du_inf < ", "du_inf <= "))
     with pytest.raises(RuntimeError, match="does not end"):
         _report_sqp_failure(source.replace("\n  return 0;\n}\n", "\n  return 0; }\n"))
+    # A CasADi whose generated code has no such test: the route is CasADi's in-process sqpmethod, and it fails
+    # where it stalls.
+    monkeypatch.setattr(generated, "_SQP_CONVERGED", re.compile("no such line"))
+    solver = make_solver("sqp_c", nlp, equality)
+    assert not isinstance(solver, GeneratedNLP)
+    solver(x0=[0.0, 0.0], p=0.0, lbg=[3.0, 0.0], ubg=[np.inf, 0.0])
+    assert solver.stats()["success"] is False
 
 
 def test_generated_route_runs_in_process_where_nothing_compiles(tmp_path, monkeypatch):
