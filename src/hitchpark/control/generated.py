@@ -207,6 +207,9 @@ _SQP_CONVERGED = re.compile(r"if \(iter_count >= 0 && pr_inf < (\S+) && du_inf <
 #: The end of the generated sqpmethod's function: its answer copied out, then success whatever happened.
 _SQP_END = "\n  return 0;\n}\n"
 
+#: What :func:`_report_sqp_failure` puts in its place, given the convergence test's two tolerances.
+_SQP_RETURN = "\n  return pr_inf < {} && du_inf < {} ? 0 : 1;\n}}\n"
+
 
 def _report_sqp_failure(source: str) -> str:
     """The C of a generated sqpmethod solver that returns 1 unless its iterations met the tolerances.
@@ -223,8 +226,7 @@ def _report_sqp_failure(source: str) -> str:
     end = source.find(_SQP_END, found[0].end())
     if end < 0:
         raise RuntimeError("generated sqpmethod: the solver's function does not end as expected")
-    converged = f"\n  return pr_inf < {pr_tol} && du_inf < {du_tol} ? 0 : 1;\n}}\n"
-    return source[:end] + converged + source[end + len(_SQP_END) :]
+    return source[:end] + _SQP_RETURN.format(pr_tol, du_tol) + source[end + len(_SQP_END) :]
 
 
 def generated_nlpsol(
@@ -274,8 +276,9 @@ def generated_nlpsol(
 
         sizes = (int(nlp["x"].numel()), int(nlp["p"].numel()), int(nlp["g"].numel()))
         kind = "generated-stagewise" if stagewise else "generated"
-        if plugin == "sqpmethod":  # the libraries built before it reported every solve as a success
-            kind += "-status-" + hashlib.sha256((_SQP_CONVERGED.pattern + _SQP_END).encode()).hexdigest()[:12]
+        if plugin == "sqpmethod":  # the edit shapes the library (those built before it reported no failure)
+            edit_text = _SQP_CONVERGED.pattern + _SQP_END + _SQP_RETURN
+            kind += "-status-" + hashlib.sha256(edit_text.encode()).hexdigest()[:12]
         if warm:  # the source of the warm start shapes the library too
             kind += "-warm-" + hashlib.sha256((WARM_SOURCE.read_text() + _WARM_DUALS).encode()).hexdigest()[:12]
         key = cache_key(plugin, nlp, options, kind=kind)
