@@ -127,7 +127,7 @@ def test_the_controller_passes_on_the_shifted_multipliers_and_parks_as_without(j
 
 def test_without_a_cpp_compiler_the_solver_is_fatrop_as_it_comes(jit_cache, monkeypatch):
     monkeypatch.setenv("CXX", "no-such-compiler-here")
-    controller, problems, _ = _recorded("paper", 1)
+    controller, problems, _ = _recorded("paper", 1, solver="fatrop_c")
     assert isinstance(controller.solver, GeneratedNLP) and not controller.solver.warm_duals
     assert not takes_duals(controller.solver)
     assert all(p.lam_x0 is None for p in problems)

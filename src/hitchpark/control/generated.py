@@ -53,8 +53,12 @@ class GeneratedNLP:
         self._code = 0
         self._source = (library, name, n_x, n_p, n_g, dual_floor)
         self.dual_floor = float(dual_floor)
-        self._set_warm = getattr(self._lib.library, "hitchpark_fatrop_set_warm", None)
-        self._iterations = getattr(self._lib.library, "hitchpark_fatrop_last_iterations", None)
+        # A library's own warm start and iteration count (:mod:`.riccati`), else the fatrop build's.
+        lib = self._lib.library
+        self._set_warm = getattr(lib, f"{name}_set_warm", None) or getattr(lib, "hitchpark_fatrop_set_warm", None)
+        self._iterations = getattr(lib, f"{name}_iterations", None) or getattr(
+            lib, "hitchpark_fatrop_last_iterations", None
+        )
         if self._set_warm is not None:
             self._set_warm.argtypes = (ctypes.c_int, ctypes.c_double)
             self._set_warm.restype = None

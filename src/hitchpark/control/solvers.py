@@ -1,7 +1,8 @@
 """Solvers as a registry of named routes over one transcription of an OCP.
 
 A route is a CasADi NLP plugin with its options, built either in-process (its functions compiled
-to C when ``jit``) or as the whole solver generated to C and compiled (:mod:`.generated`). Add one
+to C when ``jit``) or as the whole solver generated to C and compiled (:mod:`.generated`), or a solver
+of hitchpark's own with a builder of its own (``riccati_c``, :mod:`.riccati`). Add one
 with :func:`register_solver`; settings name routes by these keys, the controller builds them here
 and ``hitchpark bench`` compares them on recorded problems, never by checking names themselves.
 """
@@ -22,6 +23,8 @@ import casadi as ca
 
 from .compiled import compiled_nlpsol
 from .generated import generated_nlpsol
+from .riccati import DEFAULTS as RICCATI_DEFAULTS
+from .riccati import riccati_nlpsol
 from .stagewise import stagewise_functions
 
 __all__ = [
@@ -39,6 +42,11 @@ __all__ = [
 #: are equalities (structure-exploiting solvers need it). The user's ``solver_options`` go on top.
 SolverFactory = Callable[[Sequence[bool]], tuple[str, dict[str, Any]]]
 
+#: ``build(name, transcription, options, dual_floor) -> solver or None``: a route's own builder (not a
+#: CasADi plugin); None where it cannot be built here (no compiler, a transcription it does not take).
+#: Raises RuntimeError on options it does not accept.
+SolverBuilder = Callable[[str, Any, Mapping[str, Any], float], Any]
+
 
 @dataclass(frozen=True)
 class Route:
@@ -48,6 +56,8 @@ class Route:
     factory: SolverFactory
     generated: bool = False
     structured: bool = False  # exploits the stages of multiple shooting: single shooting has none
+    build: SolverBuilder | None = None  # a solver of hitchpark's own (the factory's plugin names it)
+    stand_in: str | None = None  # the route built where ``build`` cannot build
 
     @property
     def summary(self) -> str:
@@ -59,16 +69,22 @@ ROUTES: dict[str, Route] = {}
 
 
 def register_solver(
-    name: str, generated: bool = False, structured: bool = False
+    name: str,
+    generated: bool = False,
+    structured: bool = False,
+    build: SolverBuilder | None = None,
+    stand_in: str | None = None,
 ) -> Callable[[SolverFactory], SolverFactory]:
     """Decorator: register a factory returning ``(plugin, default options)`` under ``name``.
 
     ``generated``: the route is the whole solver as compiled C (in-process where nothing compiles).
     ``structured``: it needs the stage structure of the multiple-shooting transcription.
+    ``build``: the route is a solver of hitchpark's own, built so (:data:`SolverBuilder`); where it cannot
+    be, the route ``stand_in`` is built instead (with its own defaults).
     """
 
     def put(factory: SolverFactory) -> SolverFactory:
-        ROUTES[name] = Route(name, factory, generated, structured)
+        ROUTES[name] = Route(name, factory, generated, structured, build, stand_in)
         return factory
 
     return put
@@ -185,12 +201,19 @@ def make_solver(
     route is compiled whole whatever ``jit`` says (:mod:`.generated`); given the ``transcription`` whose
     NLP ``nlp`` is, a generated structured route evaluates the NLP's functions stage by stage
     (:mod:`.stagewise`). ``dual_floor``: the least bound multiplier of a generated fatrop solver started
-    from given multipliers (:class:`.generated.GeneratedNLP`; None: 1e-9, the full kind's); other routes
-    take no such start.
+    from given multipliers (:class:`.generated.GeneratedNLP`; None: 1e-9, the full kind's), and of
+    ``riccati_c``; other routes take no such start. A route of hitchpark's own (``build``) needs the
+    ``transcription``; where it cannot be built, its ``stand_in`` is.
     """
     route = ROUTES[name]
     plugin, opts = route.factory(equality)
     opts.update(options or {})
+    floor = 1e-9 if dual_floor is None else dual_floor
+    if route.build is not None:
+        built = route.build(f"hitchpark_{name}", transcription, opts, floor)
+        if built is not None or route.stand_in is None:
+            return built
+        return make_solver(route.stand_in, nlp, equality, None, jit, transcription, dual_floor)
     with quiet_stderr():
         if route.generated:
             stages = None
@@ -202,7 +225,7 @@ def make_solver(
                 nlp,
                 opts,
                 stages=stages,
-                dual_floor=1e-9 if dual_floor is None else dual_floor,
+                dual_floor=floor,
             )
         if jit:
             return compiled_nlpsol(f"nmpc_{name}", plugin, nlp, opts)
@@ -250,3 +273,9 @@ def _sqp_bfgs(equality: Sequence[bool]) -> tuple[str, dict[str, Any]]:
     """sqpmethod with qrqp and a limited-memory BFGS Hessian: no second derivatives."""
     plugin, options = _sqp(equality)
     return plugin, {**options, "hessian_approximation": "limited-memory", "max_iter": 200}
+
+
+@register_solver("riccati_c", structured=True, build=riccati_nlpsol, stand_in="fatrop_c")
+def _riccati_c(equality: Sequence[bool]) -> tuple[str, dict[str, Any]]:
+    """hitchpark's own interior-point method, its Newton steps a Riccati recursion, compiled with the OCP."""
+    return "riccati", dict(RICCATI_DEFAULTS)

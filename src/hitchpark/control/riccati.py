@@ -1,0 +1,184 @@
+"""hitchpark's own structured NLP solver: an interior-point method whose Newton steps are a Riccati recursion.
+
+fatrop, made for OCPs, keeps many blocks a stage (some 158 KiB a stage of the obstacle OCP), and at N = 80 an
+iteration walks through more than a core's second-level cache holds: a stage costs a fifth more there than
+at N = 10 (README, "Speed"). This solver (``riccati_ipm.c``, its method described at its top) keeps what a
+stage needs together in one struct (10 KiB for the obstacle OCP, 4 KiB for the full one), in the work array
+the caller hands it, and allocates nothing: the C an embedded computer would run. CasADi writes the stage's
+functions (:func:`riccati_functions`: the transcription's own expressions, as :mod:`.stagewise` writes them)
+to C, they and the solver are compiled into one library, and each call goes through
+:class:`.generated.GeneratedNLP` with the calling convention of a CasADi ``nlpsol``: the same inputs and
+outputs, multipliers included.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import casadi as ca
+
+from ..native import build_library, cache_key, load_cached, resolved_compiler
+from .generated import GeneratedNLP
+
+__all__ = ["RICCATI_SOURCE", "riccati_functions", "riccati_nlpsol"]
+
+#: The solver's C (the method, at its top).
+RICCATI_SOURCE = Path(__file__).with_name("riccati_ipm.c")
+
+#: The solver's options and their defaults: tolerance of the scaled optimality error, the barrier parameter
+#: (fixed), the iteration limit, the least slack of a constraint at the start (the warm start's own
+#: otherwise: where it is active, the slack starts this close to its bound).
+DEFAULTS = {"tol": 1e-8, "mu": 1e-9, "max_iter": 300, "bound_push": 1e-9}
+
+
+def riccati_functions(transcription: Any, prefix: str) -> dict[str, ca.Function] | None:
+    """The stage functions the solver calls, dense outputs (column-major), keyed by the C's macro names.
+
+    ``lin0/link/linN``: cost, its gradient, the dynamics and their Jacobian (not at N), the rows and their
+    Jacobian in X (not at 0), the Hessian of the stage's share of the Lagrangian ``f + lam_g' g``. ``ev0/evk/evN``:
+    cost, dynamics and rows alone. None where the transcription is not multiple shooting or has path
+    constraints (rows that may change with k).
+    """
+    from .transcription import MultipleShooting, first_step_weight
+
+    pr = transcription.problem
+    if not isinstance(transcription, MultipleShooting) or pr.path_constraints:
+        return None
+    nx, nu, n_p = pr.n_x, pr.n_u, pr.n_p
+    X, U, P = ca.SX.sym("X", nx), ca.SX.sym("U", nu), ca.SX.sym("P", n_p)
+    lam_gap = ca.SX.sym("lam_gap", nx)
+    row_list = pr.step_rows(X, P)[0]
+    rows = ca.vertcat(*row_list) if row_list else ca.SX(0, 1)
+    lam_rows = ca.SX.sym("lam_rows", rows.numel())
+    XU = ca.vertcat(X, U)
+    F = pr.discrete_dynamics(X, U)  # Eq. (48)
+    cost, terminal = pr.stage_cost(X, U, P), pr.terminal_cost(X, P)
+    H = ca.SX.sym("H")  # stage 0's step length where the OCP makes it a parameter (p's last)
+    h_in = [H] if pr.first_step else []
+    F0 = pr.discrete_dynamics(X, U, H) if pr.first_step else F
+    cost0 = first_step_weight(pr, H) * cost if pr.first_step else cost
+    # Each stage's share of the Lagrangian without the linear X_{k+1} of its gap (g's gap is X_{k+1} - F).
+    first = cost0 - ca.dot(lam_gap, F0)
+    middle = cost - ca.dot(lam_gap, F) + ca.dot(lam_rows, rows)
+    last = terminal + ca.dot(lam_rows, rows)
+
+    def dense(*parts: Any) -> list[Any]:
+        return [ca.densify(part) for part in parts]
+
+    def fn(name: str, inputs: list[Any], outputs: list[Any]) -> ca.Function:
+        return ca.Function(f"{prefix}{name}", inputs, dense(*outputs))
+
+    return {
+        "HP_LIN0": fn(
+            "lin0",
+            [X, U, P, lam_gap, *h_in],
+            [cost0, ca.gradient(cost0, XU), F0, ca.jacobian(F0, XU), ca.hessian(first, XU)[0]],
+        ),
+        "HP_LINK": fn(
+            "link",
+            [X, U, P, lam_gap, lam_rows],
+            [cost, ca.gradient(cost, XU), F, ca.jacobian(F, XU), rows, ca.jacobian(rows, X), ca.hessian(middle, XU)[0]],
+        ),
+        "HP_LINN": fn(
+            "linN",
+            [X, P, lam_rows],
+            [terminal, ca.gradient(terminal, X), rows, ca.jacobian(rows, X), ca.hessian(last, X)[0]],
+        ),
+        "HP_EV0": fn("ev0", [X, U, P, *h_in], [cost0, F0]),
+        "HP_EVK": fn("evk", [X, U, P], [cost, F, rows]),
+        "HP_EVN": fn("evN", [X, P], [terminal, rows]),
+    }
+
+
+#: The library's entry points around the solver: the calling convention of a generated CasADi function
+#: (:class:`hitchpark.native.LibraryCall`) and the warm start and iteration count of :class:`.GeneratedNLP`.
+_EXPORTS = """
+static _Thread_local int hp_warm_flag;
+static _Thread_local double hp_warm_floor = 1e-9;
+static _Thread_local int hp_last_iterations;
+CASADI_SYMBOL_EXPORT int {name}(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {{
+  struct hp_work* m = (struct hp_work*) w;
+  int code = hp_solve(m, arg, res, hp_warm_flag, hp_warm_floor);
+  hp_last_iterations = m->iterations;
+  return code;
+}}
+CASADI_SYMBOL_EXPORT int {name}_work(casadi_int* sz_arg, casadi_int* sz_res, casadi_int* sz_iw, casadi_int* sz_w) {{
+  *sz_arg = 8; *sz_res = 5; *sz_iw = 0;
+  *sz_w = (casadi_int) (sizeof(struct hp_work) / sizeof(casadi_real)) + 1;
+  return 0;
+}}
+CASADI_SYMBOL_EXPORT int {name}_checkout(void) {{ return 0; }}
+CASADI_SYMBOL_EXPORT void {name}_release(int mem) {{ (void) mem; }}
+CASADI_SYMBOL_EXPORT void {name}_set_warm(int warm, double floor) {{ hp_warm_flag = warm; hp_warm_floor = floor; }}
+CASADI_SYMBOL_EXPORT int {name}_iterations(void) {{ return hp_last_iterations; }}
+"""
+
+
+def _config(transcription: Any, functions: Mapping[str, ca.Function], options: Mapping[str, Any]) -> str:
+    """The C definitions :data:`RICCATI_SOURCE` is written against."""
+    pr = transcription.problem
+    n_rows = int(functions["HP_EVK"].size1_out(2))
+    work = {
+        "HP_SZ_ARG": max(f.sz_arg() for f in functions.values()),
+        "HP_SZ_RES": max(f.sz_res() for f in functions.values()),
+        "HP_SZ_IW": max(max(f.sz_iw() for f in functions.values()), 1),
+        "HP_SZ_W": max(max(f.sz_w() for f in functions.values()), 1),
+    }
+    lines = {
+        "HP_N": pr.horizon,
+        "HP_NX": pr.n_x,
+        "HP_NU": pr.n_u,
+        "HP_NR": n_rows,
+        "HP_NP": pr.n_p,
+        "HP_H0": int(bool(pr.first_step)),
+        "HP_TOL": repr(float(options["tol"])),
+        "HP_MU": repr(float(options["mu"])),
+        "HP_MAX_ITER": int(options["max_iter"]),
+        "HP_BOUND_PUSH": repr(float(options["bound_push"])),
+        **work,
+        **{macro: f.name() for macro, f in functions.items()},
+    }
+    return "\n" + "".join(f"#define {k} {v}\n" for k, v in lines.items())
+
+
+def riccati_nlpsol(
+    name: str, transcription: Any, options: Mapping[str, Any] | None = None, dual_floor: float = 1e-9
+) -> GeneratedNLP | None:
+    """The solver of ``transcription.nlp`` as a compiled library (from the cache when it can), or None where
+    it cannot be built: no C compiler, no transcription or one it does not take (:func:`riccati_functions`).
+    Raises RuntimeError on an option it does not take (:data:`DEFAULTS` names them) or a value out of range.
+    """
+    settings = {**DEFAULTS, **(options or {})}
+    unknown = sorted(set(settings) - set(DEFAULTS))
+    if unknown:
+        raise RuntimeError(f"unknown option {unknown[0]!r}; the options are {', '.join(DEFAULTS)}")
+    for key in ("tol", "mu", "bound_push"):
+        value = settings[key]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < 1:
+            raise RuntimeError(f"option {key!r} must be a number in (0, 1), got {value!r}")
+    if settings["mu"] >= settings["tol"]:
+        raise RuntimeError(f"option 'mu' must be below 'tol' ({settings['tol']!r}), got {settings['mu']!r}")
+    iterations = settings["max_iter"]
+    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
+        raise RuntimeError(f"option 'max_iter' must be a whole number of at least 1, got {iterations!r}")
+    if transcription is None:
+        return None
+    compiler = resolved_compiler()
+    functions = riccati_functions(transcription, f"{name}_")
+    if compiler is None or functions is None:
+        return None
+    solver_c = RICCATI_SOURCE.read_text()
+    text = _config(transcription, functions, settings) + solver_c + _EXPORTS.format(name=name)
+    nlp = transcription.nlp
+
+    def build(compiler: str, home: Path, library: Path) -> bool:
+        main, *rest = functions.values()
+        return build_library(main, (), compiler, home, library, rest, lambda source: source + text)
+
+    kind = "riccati-" + hashlib.sha256(text.encode()).hexdigest()[:16]
+    key = cache_key("riccati", nlp, settings, kind=kind)
+    sizes = (int(nlp["x"].numel()), int(nlp["p"].numel()), int(nlp["g"].numel()))
+    return load_cached(name, key, build, lambda library: GeneratedNLP(library, name, *sizes, dual_floor))

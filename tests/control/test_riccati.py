@@ -1,0 +1,169 @@
+"""hitchpark's own structured solver, ``riccati_c``: IPOPT's optimum and a KKT point with its multipliers, from a
+cold and from a warm start; what it cannot take, refused as a failure; the options it takes."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from hitchpark import VehicleTrailer
+from hitchpark.checks import InputError
+from hitchpark.control import NMPCSettings, TrailerNMPC, make_nmpc
+from hitchpark.control.generated import GeneratedNLP
+from hitchpark.control.solvers import make_solver
+
+
+def _riccati(controller, floor=None):
+    tr = controller.transcription
+    floor = controller.settings.dual_floor if floor is None else floor
+    return make_solver("riccati_c", tr.nlp, list(tr.lbg == tr.ubg), transcription=tr, dual_floor=floor)
+
+
+def _kkt(tr):
+    """The NLP's cost, constraints, cost gradient and constraint Jacobian, as one CasADi function of (x, p)."""
+    nlp = tr.nlp
+    x, p = nlp["x"], nlp["p"]
+    return ca.Function("kkt", [x, p], [nlp["f"], nlp["g"], ca.gradient(nlp["f"], x), ca.jacobian(nlp["g"], x)])
+
+
+def _assert_kkt_point(kkt, problem, answer, tol=1e-6):
+    """``answer`` (x, f, g, lam_x, lam_g in CasADi's conventions) is a KKT point of ``problem``: feasible,
+    stationary, each multiplier's sign that of its active bound, and f and g the NLP's own at x."""
+    x, lam_x, lam_g = (np.asarray(answer[k], dtype=float).ravel() for k in ("x", "lam_x", "lam_g"))
+    f, g, grad, jac = kkt(x, problem.p)
+    g = np.asarray(g).ravel()
+    assert answer["f"] == pytest.approx(float(f), rel=1e-12, abs=1e-12)
+    np.testing.assert_allclose(answer["g"], g, atol=1e-12, rtol=1e-12)
+    # Stationarity, scaled as the solver's test is (by the multipliers' size).
+    scale = max(1.0, (np.abs(lam_x).sum() + np.abs(lam_g).sum()) / (len(lam_x) + len(lam_g)))
+    residual = np.asarray(grad).ravel() + np.asarray(jac.T @ lam_g).ravel() + lam_x
+    assert np.max(np.abs(residual)) <= 10 * tol * scale
+    # Feasible, and complementary: a negative multiplier belongs to a lower bound, a positive one to an upper,
+    # each times its distance from that bound no more than the barrier leaves (mu = 1e-9, tolerance 1e-8).
+    for value, low, high, lam in ((g, problem.lbg, problem.ubg, lam_g), (x, problem.lbx, problem.ubx, lam_x)):
+        assert np.all(value >= low - tol) and np.all(value <= high + tol)
+        with np.errstate(invalid="ignore"):  # inf * 0 where a bound is infinite and its multiplier 0
+            below = np.where(lam < 0.0, -lam * (value - low), 0.0)
+            above = np.where(lam > 0.0, lam * (high - value), 0.0)
+        assert np.max(below, initial=0.0) <= 1e-7 and np.max(above, initial=0.0) <= 1e-7
+
+
+@pytest.mark.parametrize("ocp", ["paper", "full", "obstacles"])
+def test_riccati_reaches_ipopts_optimum_from_cold_and_warm_starts(jit_cache, request, ocp):
+    controller, problems = request.getfixturevalue(f"{'obstacle' if ocp == 'obstacles' else ocp}_problems")
+    tr = controller.transcription
+    solver = _riccati(controller)
+    assert isinstance(solver, GeneratedNLP) and solver.warm_duals
+    ipopt = make_solver("ipopt", tr.nlp, list(tr.lbg == tr.ubg))
+    kkt = _kkt(tr)
+    assert len(problems) >= 10
+    previous = None
+    for problem in problems:
+        reference = ipopt(**problem.inputs())
+        first_ref = tr.unpack(np.asarray(reference["x"]).ravel(), problem.p)[1][0]
+        # Cold, then from the multipliers of the problem before (the suite records none: fatrop in-process).
+        starts = [{}] if previous is None else [{}, {"lam_x0": previous["lam_x"], "lam_g0": previous["lam_g"]}]
+        for start in starts:
+            answer = solver(**problem.inputs(), **start)
+            assert solver.stats()["success"], f"riccati_c failed on a recorded {ocp} problem ({sorted(start)})"
+            assert answer["f"] == pytest.approx(float(reference["f"]), rel=1e-5, abs=1e-9)
+            first = tr.unpack(np.asarray(answer["x"]).ravel(), problem.p)[1][0]  # the move the car is given
+            np.testing.assert_allclose(first, first_ref, atol=2e-4)
+            _assert_kkt_point(kkt, problem, answer)
+        previous = answer
+
+
+def test_riccati_from_its_own_answer_is_done_at_once(jit_cache, obstacle_problems, monkeypatch):
+    controller, problems = obstacle_problems
+    solver = _riccati(controller, floor=1e-12)
+    steps = []
+    for problem in problems:
+        answer = solver(**problem.inputs())
+        cold = solver.stats()["iter_count"]
+        again = solver(**{**problem.inputs(), "x0": answer["x"], "lam_x0": answer["lam_x"], "lam_g0": answer["lam_g"]})
+        steps.append((cold, solver.stats()["iter_count"]))
+        assert solver.stats()["success"]
+        np.testing.assert_allclose(again["x"], answer["x"], atol=1e-6)
+    assert all(again <= 1 for _, again in steps), steps
+    assert sum(cold for cold, _ in steps) > len(steps)  # the problems themselves take iterations
+
+    # A second solver of the same problem loads the library instead of compiling it.
+    monkeypatch.setattr(subprocess, "run", lambda *a, **k: pytest.fail("compiled again despite the cache"))
+    assert isinstance(_riccati(controller), GeneratedNLP)
+
+
+def test_riccati_fails_on_what_it_cannot_take(jit_cache, obstacle_problems):
+    controller, problems = obstacle_problems
+    solver = _riccati(controller)
+    iterations = []
+    for candidate in problems:
+        solver(**candidate.inputs())
+        assert solver.stats()["success"]
+        iterations.append(solver.stats()["iter_count"])
+    problem = problems[int(np.argmax(iterations))]  # one that takes more than one iteration
+    assert max(iterations) > 1
+    # A relaxed X_0 = x0 row (the free-steer problem's, which a structured route cannot take): refused.
+    lbg = problem.lbg.copy()
+    lbg[4] -= 0.1
+    solver(**{**problem.inputs(), "lbg": lbg})
+    assert solver.stats() == {"success": False, "return_status": "not converged (code 4)", "iter_count": 0}
+    # A start it cannot evaluate: refused before any step.
+    x0 = problem.w0.copy()
+    x0[9] = math.nan
+    solver(**{**problem.inputs(), "x0": x0})
+    assert solver.stats()["return_status"] == "not converged (code 3)"
+    # Multipliers with a NaN are not used: the solve is the cold one, to the last bit.
+    cold = solver(**problem.inputs())
+    cold_stats = solver.stats()
+    answer = solver(**problem.inputs())
+    lam_g = answer["lam_g"].copy()
+    lam_g[len(lam_g) // 2] = math.nan
+    ignored = solver(**problem.inputs(), lam_x0=answer["lam_x"], lam_g0=lam_g)
+    assert solver.stats() == cold_stats
+    np.testing.assert_array_equal(ignored["x"], cold["x"])
+    # Out of iterations: a failure, whatever the iterate.
+    tr = controller.transcription
+    short = make_solver("riccati_c", tr.nlp, list(tr.lbg == tr.ubg), {"max_iter": 1}, transcription=tr)
+    short(**problem.inputs())
+    assert short.stats() == {"success": False, "return_status": "not converged (code 1)", "iter_count": 1}
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"max_itr": 5}, "unknown option 'max_itr'; the options are tol, mu, max_iter, bound_push"),
+        ({"mu": 1e-8}, "option 'mu' must be below 'tol' (1e-08), got 1e-08"),
+        ({"tol": "small"}, "option 'tol' must be a number in (0, 1), got 'small'"),
+        ({"max_iter": 2.5}, "option 'max_iter' must be a whole number of at least 1, got 2.5"),
+    ],
+)
+def test_riccati_refuses_options_it_does_not_take(options, message):
+    with pytest.raises(InputError) as caught:
+        make_nmpc(VehicleTrailer(), NMPCSettings(kind="paper", solver="riccati_c", solver_options=options))
+    assert str(caught.value) == f"nmpc.solver_options are not accepted by riccati_c: {message}"
+
+
+def test_riccati_stands_in_fatrop_where_nothing_compiles(tmp_path, monkeypatch):
+    monkeypatch.setenv("HITCHPARK_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("HITCHPARK_JIT", "0")
+    nmpc = TrailerNMPC(VehicleTrailer(), NMPCSettings(kind="paper", solver="riccati_c"))
+    assert not isinstance(nmpc.solver, GeneratedNLP)
+    assert nmpc.step(10.0, 3.5, 0.0, 0.0).ok
+    assert not (tmp_path / "cache").exists()
+
+
+@pytest.mark.parametrize("horizon", [1, 2, 7])
+def test_riccati_steps_as_ipopt_at_any_horizon(jit_cache, horizon):
+    steps = {}
+    for solver in ("riccati_c", "ipopt"):
+        nmpc = TrailerNMPC(VehicleTrailer(), NMPCSettings(kind="paper", horizon=horizon, solver=solver))
+        assert isinstance(nmpc.solver, GeneratedNLP) == (solver == "riccati_c")
+        steps[solver] = [nmpc.step(10.0, 3.5, 0.2, math.radians(10.0)), nmpc.step(9.9, 3.45, 0.21, math.radians(9.0))]
+    for mine, reference in zip(steps["riccati_c"], steps["ipopt"], strict=True):
+        assert mine.ok and reference.ok
+        assert mine.virtual_steer == pytest.approx(reference.virtual_steer, abs=1e-5)
+        assert mine.trailer_speed == pytest.approx(reference.trailer_speed, abs=1e-5)
