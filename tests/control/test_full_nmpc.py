@@ -120,8 +120,8 @@ def test_non_finite_or_jackknifed_measurements_are_refused(nmpc):
 
 def test_settings_per_kind_and_solver_options_in_equality():
     full, paper = NMPCSettings(), NMPCSettings(kind="paper")
-    assert (len(full.Q), len(full.R), full.solver) == (6, 2, "fatrop_c")
-    assert (len(paper.Q), paper.horizon, paper.solver) == (3, 10, "fatrop_c")
+    assert (len(full.Q), len(full.R), full.solver) == (6, 2, "riccati_c")
+    assert (len(paper.Q), paper.horizon, paper.solver) == (3, 10, "riccati_c")
     single = NMPCSettings(kind="paper", transcription="single_shooting")
     assert single.solver == "sqp"  # fatrop needs the stages of multiple shooting
     with pytest.raises(InputError, match=r"needs nmpc\.transcription 'multiple_shooting'"):

@@ -43,7 +43,7 @@ def test_defaults_are_table4():
     assert s.R == (0.0, 0.1)
     assert (s.speed_min, s.speed_max) == (-1.0, 0.0)
     assert s.virtual_limit == 0.5
-    assert s.solver == "fatrop_c"  # not the paper's (it names none); chosen by `hitchpark bench`
+    assert s.solver == "riccati_c"  # not the paper's (it names none); chosen by `hitchpark bench`
     assert s.transcription in ("multiple_shooting", "single_shooting")
 
 

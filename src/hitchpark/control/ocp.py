@@ -76,7 +76,7 @@ KIND_DEFAULTS: dict[str, dict[str, Any]] = {
         "Q": (1.0, 10.0, 10.0),
         "R": (0.0, 0.1),
         "P": (1.0, 10.0, 10.0),
-        "solver": "fatrop_c",
+        "solver": "riccati_c",
         "jit": False,
         "dual_floor": 1.0,
     },
@@ -84,7 +84,7 @@ KIND_DEFAULTS: dict[str, dict[str, Any]] = {
     "full": {
         "horizon": 10,
         "prediction_dt": 0.3,
-        "solver": "fatrop_c",
+        "solver": "riccati_c",
         "jit": True,
         "dual_floor": 1e-9,
         "Q": (1.0, 10.0, 10.0, 0.5, 0.01, 0.01),
@@ -134,11 +134,13 @@ class NMPCSettings:
     max_steps : int
         A reverse stage that has not stopped after this many steps ends as stalled.
     solver : str or None
-        A registered route (:mod:`.solvers`, compared by ``hitchpark bench``): ``"fatrop_c"`` (fatrop, the
-        structure-exploiting interior point, generated to C with the OCP and compiled; both kinds'
-        default), ``"fatrop"`` (the same in-process), ``"sqp"`` (CasADi sqpmethod with the qrqp QP
-        solver, exact Hessian), ``"sqp_c"``, ``"sqp_bfgs"`` or ``"ipopt"`` (interior point, the
-        reference). None: the kind's (``"sqp"`` with single shooting, which has no stages).
+        A registered route (:mod:`.solvers`, compared by ``hitchpark bench``): ``"riccati_c"`` (hitchpark's
+        own structure-exploiting interior point, :mod:`.riccati`, compiled with the OCP; both kinds'
+        default; fatrop_c where nothing compiles), ``"fatrop_c"`` (fatrop, the structure-exploiting interior
+        point, generated to C with the OCP and compiled), ``"fatrop"`` (the same in-process), ``"sqp"``
+        (CasADi sqpmethod with the qrqp QP solver, exact Hessian), ``"sqp_c"``, ``"sqp_bfgs"`` or
+        ``"ipopt"`` (interior point, the reference). None: the kind's (``"sqp"`` with single shooting,
+        which has no stages).
     fallback_solver : str or None
         Solver tried when the first one fails; only if both fail, and a retry from a cold start fails
         too, does the step command a stop.
