@@ -167,3 +167,23 @@ def test_riccati_steps_as_ipopt_at_any_horizon(jit_cache, horizon):
         assert mine.ok and reference.ok
         assert mine.virtual_steer == pytest.approx(reference.virtual_steer, abs=1e-5)
         assert mine.trailer_speed == pytest.approx(reference.trailer_speed, abs=1e-5)
+
+
+def test_riccati_from_a_cold_start_at_a_long_horizon(jit_cache):
+    """A closed loop's first problem, with no multipliers to start from, at N = 80 (the full OCP): the barrier
+    parameter comes down from IPOPT's start rather than beginning at its last value (which stalled here)."""
+    from hitchpark.app.bench import BENCH_OCPS, own_problems, record_problems
+
+    ocp = BENCH_OCPS["full"]
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("HITCHPARK_JIT", "0")  # recorded as the suite's other problems are
+        controller, problems = record_problems(ocp, VehicleTrailer(), ocp.starts(1), horizon=80)
+    first = own_problems(controller, problems)[0]
+    tr = controller.transcription
+    solver, ipopt = _riccati(controller), make_solver("ipopt", tr.nlp, list(tr.lbg == tr.ubg))
+    reference = ipopt(**first.inputs())
+    answer = solver(**first.inputs())
+    assert solver.stats()["success"] and ipopt.stats()["success"]
+    assert answer["f"] == pytest.approx(float(reference["f"]), rel=1e-6)
+    np.testing.assert_allclose(np.asarray(answer["x"]).ravel(), np.asarray(reference["x"]).ravel(), atol=1e-4)
+    _assert_kkt_point(_kkt(tr), first, answer)

@@ -1,6 +1,6 @@
 /* A primal-dual interior-point method for a multiple-shooting OCP, its Newton steps by a Riccati recursion.
  *
- * hitchpark's own structured solver (the route ``ipm_c``, hitchpark.control.riccati). The NLP is the
+ * hitchpark's own structured solver (the route ``riccati_c``, hitchpark.control.riccati). The NLP is the
  * transcription's (hitchpark.control.stagewise): w = [X_0, U_0, ..., X_N], g = [X_0 - x0, then for
  * k < N the gap X_{k+1} - F_k(X_k, U_k) and, for k > 0, the rows on X_k; then the rows on X_N]. Its
  * functions come stage by stage from CasADi's generated C (HP_LIN*: cost, gradient, dynamics and their
@@ -8,9 +8,11 @@
  *
  * The method is the classic one (Nocedal and Wright, ch. 19; IPOPT's paper, Waechter and Biegler 2006):
  * each one-sided constraint c_j(w) >= 0 (a finite bound of a row or a variable) gets a slack s_j > 0 and
- * a multiplier z_j > 0, the barrier parameter mu stays at its given value (from a warm start the solves
- * begin near the optimum; the tolerance is met at mu = tol / 10), and each Newton step of the perturbed
- * KKT conditions eliminates slacks and their multipliers stage by stage:
+ * a multiplier z_j > 0. From a warm start (the caller's multipliers) the barrier parameter mu stays at
+ * HP_MU (the solves begin near the optimum; the tolerance is met at mu = tol / 10); from a cold start it
+ * begins at HP_MU_COLD and comes down to HP_MU by IPOPT's monotone rule (a solve far from the optimum
+ * with mu already tiny hugs the bounds and can stall). Each Newton step of the perturbed KKT conditions
+ * eliminates slacks and their multipliers stage by stage:
  *   (H_k + Jc_k' Sigma_k Jc_k) is stage k's block (Sigma = z / s), and
  *   q_k = grad_k - Jc_k' (mu / s - Sigma (c - s)) its gradient,
  * which leaves an equality-constrained QP with the OCP's structure, solved by the Riccati recursion
@@ -40,6 +42,8 @@
 #include <string.h>
 
 #define HP_MIN_STEP 1e-12 /* the least step the line search tries */
+#define HP_MU_COLD 0.1    /* mu from a cold start (IPOPT's mu_init), brought down to HP_MU */
+#define HP_PUSH_COLD 1e-2 /* the least slack from a cold start, relative to max(1, |bound|) (IPOPT's bound_push) */
 
 #define HP_NV (HP_NX + HP_NU)
 #define HP_NC (2 * HP_NR + 2 * HP_NV) /* one-sided constraints a stage: rows low, high; variables low, high */
@@ -80,6 +84,7 @@ struct hp_work {
   real filter_theta[HP_MAX_ITER + 1], filter_phi[HP_MAX_ITER + 1];
   int filter_size;
   real delta_last;     /* the last inertia correction */
+  real mu;             /* the barrier parameter */
   int iterations;
 };
 
@@ -203,19 +208,19 @@ static void hp_slack_step(const struct hp_stage* s, const real* dw, const real* 
 }
 
 /* q = grad - Jc' t, t_j = mu / s_j - Sigma_j r_j (r: the slacks' residual or its correction). */
-static void hp_barrier_gradient(const struct hp_stage* s, int nv, const real* r, real* q) {
+static void hp_barrier_gradient(const struct hp_stage* s, int nv, const real* r, real* q, real mu) {
   int i, j;
   for (j = 0; j < nv; ++j) q[j] = s->grad[j];
   for (i = 0; i < HP_NR; ++i) {
     real t = 0.0;
-    if (s->on[i]) t += HP_MU / s->s[i] - s->z[i] / s->s[i] * r[i];
-    if (s->on[HP_NR + i]) t -= HP_MU / s->s[HP_NR + i] - s->z[HP_NR + i] / s->s[HP_NR + i] * r[HP_NR + i];
+    if (s->on[i]) t += mu / s->s[i] - s->z[i] / s->s[i] * r[i];
+    if (s->on[HP_NR + i]) t -= mu / s->s[HP_NR + i] - s->z[HP_NR + i] / s->s[HP_NR + i] * r[HP_NR + i];
     if (t != 0.0) for (j = 0; j < HP_NX; ++j) q[j] -= s->J[i + HP_NR * j] * t;
   }
   for (i = 0; i < nv; ++i) {
     int lo = 2 * HP_NR + i, hi = 2 * HP_NR + HP_NV + i;
-    if (s->on[lo]) q[i] -= HP_MU / s->s[lo] - s->z[lo] / s->s[lo] * r[lo];
-    if (s->on[hi]) q[i] += HP_MU / s->s[hi] - s->z[hi] / s->s[hi] * r[hi];
+    if (s->on[lo]) q[i] -= mu / s->s[lo] - s->z[lo] / s->s[lo] * r[lo];
+    if (s->on[hi]) q[i] += mu / s->s[hi] - s->z[hi] / s->s[hi] * r[hi];
   }
 }
 
@@ -390,9 +395,9 @@ static void hp_forward(struct hp_work* m, const real* e0) {
 }
 
 /* The largest step in (0, 1] that keeps v + a dv >= (1 - tau) v. */
-static real hp_to_boundary(const signed char* on, const real* v, const real* dv, int n, real a) {
+static real hp_to_boundary(const signed char* on, const real* v, const real* dv, int n, real a, real mu) {
   int i;
-  const real tau = fmax(0.99, 1.0 - HP_MU); /* IPOPT's tau_min 0.99 */
+  const real tau = fmax(0.99, 1.0 - mu); /* IPOPT's tau_min 0.99 */
   for (i = 0; i < n; ++i)
     if (on[i] && dv[i] < 0.0) {
       real r = -tau * v[i] / dv[i];
@@ -429,7 +434,7 @@ static real hp_barrier(const struct hp_work* m, int trial) {
     const struct hp_stage* s = &m->st[k];
     const real* sl = trial ? s->st : s->s;
     sum += trial ? s->cost_t : s->cost;
-    for (i = 0; i < HP_NC; ++i) if (s->on[i]) sum -= HP_MU * log(sl[i]);
+    for (i = 0; i < HP_NC; ++i) if (s->on[i]) sum -= m->mu * log(sl[i]);
   }
   return sum;
 }
@@ -476,13 +481,14 @@ static void hp_set_trial(struct hp_work* m, real a) {
 }
 
 /* The step of the multipliers z from the step of the slacks: dz = mu / s - z - Sigma ds. */
-static void hp_dual_step(struct hp_stage* s) {
+static void hp_dual_step(struct hp_stage* s, real mu) {
   int i;
-  for (i = 0; i < HP_NC; ++i) s->dz[i] = s->on[i] ? HP_MU / s->s[i] - s->z[i] - s->z[i] / s->s[i] * s->ds[i] : 0.0;
+  for (i = 0; i < HP_NC; ++i) s->dz[i] = s->on[i] ? mu / s->s[i] - s->z[i] - s->z[i] / s->s[i] * s->ds[i] : 0.0;
 }
 
-/* The optimality error (IPOPT's, scaled), with the current multipliers. */
-static real hp_error(struct hp_work* m, const real* x0) {
+/* The optimality error (IPOPT's, scaled), with the current multipliers: of the barrier problem of mu
+ * (complementarity s z - mu), or of the NLP (mu = 0). */
+static real hp_error(struct hp_work* m, const real* x0, real mu) {
   real rd = 0.0, pr = 0.0, co = 0.0, sum_l = 0.0, sum_z = 0.0;
   long n_l = 0, n_z = 0;
   int k, i, j;
@@ -516,7 +522,7 @@ static real hp_error(struct hp_work* m, const real* x0) {
     for (i = 0; i < HP_NC; ++i)
       if (s->on[i]) {
         pr = fmax(pr, fabs(s->c[i] - s->s[i]));
-        co = fmax(co, s->s[i] * s->z[i]);
+        co = fmax(co, fabs(s->s[i] * s->z[i] - mu));
         sum_z += s->z[i];
         ++n_z;
       }
@@ -540,6 +546,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
   warm = warm && lam_x0 && lam_g0 && hp_finite(lam_x0, HP_NW) && hp_finite(lam_g0, HP_NG); /* else: cold */
   m->iterations = 0;
   m->filter_size = 0;
+  m->mu = warm ? HP_MU : HP_MU_COLD;
   /* --- the start --- */
   for (k = 0; k <= HP_N; ++k) {
     struct hp_stage* s = &m->st[k];
@@ -569,7 +576,8 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
     }
     if (hp_eval(m, k, p, 0)) return 3;
     hp_constraints(s, s->w, s->rows, s->c);
-    for (i = 0; i < HP_NC; ++i) s->s[i] = s->on[i] ? fmax(s->c[i], HP_BOUND_PUSH) : 1.0;
+    for (i = 0; i < HP_NC; ++i)
+      s->s[i] = s->on[i] ? fmax(s->c[i], warm ? HP_BOUND_PUSH : HP_PUSH_COLD * fmax(1.0, fabs(s->bound[i]))) : 1.0;
     /* Multipliers: the caller's (bounds' at least floor), or none (z = 1, lam = 0). */
     for (i = 0; i < HP_NC; ++i) s->z[i] = s->on[i] ? 1.0 : 0.0;
     for (i = 0; i < HP_NX; ++i) s->lam[i] = warm ? lam_g0[gap + i] : 0.0;
@@ -593,15 +601,21 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
     for (k = 0; k <= HP_N; ++k)
       if (hp_linearize(m, k, p)) { code = it == 0 ? 3 : 2; goto done; }
     for (k = 0; k <= HP_N; ++k) hp_constraints(&m->st[k], m->st[k].w, m->st[k].rows, m->st[k].c);
-    if (hp_error(m, x0) <= HP_TOL) { code = 0; break; }
+    if (m->mu <= HP_MU && hp_error(m, x0, 0.0) <= HP_TOL) { code = 0; break; } /* mu down first: the same answer as warm */
     if (it >= HP_MAX_ITER) { code = 1; break; }
+    /* From a cold start: IPOPT's monotone update of mu (kappa_eps 10, kappa_mu 0.2, theta_mu 1.5), the
+     * filter anew with each new mu, down to HP_MU. */
+    while (m->mu > HP_MU && hp_error(m, x0, m->mu) <= 10.0 * m->mu) {
+      m->mu = fmax(HP_MU, fmin(0.2 * m->mu, pow(m->mu, 1.5)));
+      m->filter_size = 0;
+    }
     /* The Newton step: the barrier's blocks, the Riccati recursion, with delta I where needed. */
     for (i = 0; i < HP_NX; ++i) m->e0[i] = x0[i] - m->st[0].w[i];
     for (k = 0; k <= HP_N; ++k) {
       struct hp_stage* s = &m->st[k];
       real r[HP_NC];
       for (i = 0; i < HP_NC; ++i) r[i] = s->c[i] - s->s[i];
-      hp_barrier_gradient(s, hp_nv(k), r, s->qt);
+      hp_barrier_gradient(s, hp_nv(k), r, s->qt, m->mu);
       if (k < HP_N) for (i = 0; i < HP_NX; ++i) s->b[i] = s->F[i] - m->st[k + 1].w[i];
     }
     delta = 0.0;
@@ -619,9 +633,9 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
       real r[HP_NC];
       for (i = 0; i < HP_NC; ++i) r[i] = s->c[i] - s->s[i];
       hp_slack_step(s, s->dw, r, s->ds);
-      hp_dual_step(s);
-      a_max = hp_to_boundary(s->on, s->s, s->ds, HP_NC, a_max);
-      a_z = hp_to_boundary(s->on, s->z, s->dz, HP_NC, a_z);
+      hp_dual_step(s, m->mu);
+      a_max = hp_to_boundary(s->on, s->s, s->ds, HP_NC, a_max, m->mu);
+      a_z = hp_to_boundary(s->on, s->z, s->dz, HP_NC, a_z, m->mu);
     }
     /* theta, phi and phi's slope along the step. */
     theta0 = hp_infeasibility(m, x0, 0);
@@ -634,7 +648,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
     for (k = 0; k <= HP_N; ++k) {
       const struct hp_stage* s = &m->st[k];
       for (i = 0; i < hp_nv(k); ++i) D0 += s->grad[i] * s->dw[i];
-      for (i = 0; i < HP_NC; ++i) if (s->on[i]) D0 -= HP_MU * s->ds[i] / s->s[i];
+      for (i = 0; i < HP_NC; ++i) if (s->on[i]) D0 -= m->mu * s->ds[i] / s->s[i];
     }
     /* The line search, with one second-order correction of a rejected full step. */
     a = a_max;
@@ -648,7 +662,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
         struct hp_stage* s = &m->st[k];
         real r[HP_NC];
         for (i = 0; i < HP_NC; ++i) r[i] = a_max * (s->c[i] - s->s[i]) + (s->ct[i] - s->st[i]);
-        hp_barrier_gradient(s, hp_nv(k), r, s->qt);
+        hp_barrier_gradient(s, hp_nv(k), r, s->qt, m->mu);
         if (k < HP_N) for (i = 0; i < HP_NX; ++i) s->b[i] = a_max * s->b[i] + (s->Ft[i] - m->st[k + 1].wt[i]);
         memcpy(s->ct, r, sizeof(r)); /* kept for the slack step below */
       }
@@ -659,7 +673,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
         real r[HP_NC];
         memcpy(r, s->ct, sizeof(r));
         hp_slack_step(s, s->dw, r, s->ds);
-        a_s = hp_to_boundary(s->on, s->s, s->ds, HP_NC, a_s);
+        a_s = hp_to_boundary(s->on, s->s, s->ds, HP_NC, a_s, m->mu);
       }
       hp_set_trial(m, a_s);
       if (!hp_trial(m, x0, p, &theta_t, &phi_t))
@@ -668,8 +682,8 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
         a = a_s;
         a_z = 1.0;
         for (k = 0; k <= HP_N; ++k) {
-          hp_dual_step(&m->st[k]);
-          a_z = hp_to_boundary(m->st[k].on, m->st[k].z, m->st[k].dz, HP_NC, a_z);
+          hp_dual_step(&m->st[k], m->mu);
+          a_z = hp_to_boundary(m->st[k].on, m->st[k].z, m->st[k].dz, HP_NC, a_z, m->mu);
         }
       } else {
         /* Back to the uncorrected step: its slack step and dual step again. */
@@ -678,7 +692,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
           struct hp_stage* s = &m->st[k];
           real r[HP_NC];
           for (i = 0; i < HP_NC; ++i) r[i] = s->c[i] - s->s[i];
-          hp_barrier_gradient(s, hp_nv(k), r, s->qt);
+          hp_barrier_gradient(s, hp_nv(k), r, s->qt, m->mu);
           if (k < HP_N) for (i = 0; i < HP_NX; ++i) s->b[i] = s->F[i] - m->st[k + 1].w[i];
         }
         hp_backward_vectors(m);
@@ -688,7 +702,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
           real r[HP_NC];
           for (i = 0; i < HP_NC; ++i) r[i] = s->c[i] - s->s[i];
           hp_slack_step(s, s->dw, r, s->ds);
-          hp_dual_step(s);
+          hp_dual_step(s, m->mu);
         }
       }
     }
@@ -738,7 +752,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
         if (!s->on[i]) continue;
         s->s[i] = s->st[i];
         s->z[i] += a_z * s->dz[i];
-        s->z[i] = fmin(fmax(s->z[i], HP_MU / (1e10 * s->s[i])), 1e10 * HP_MU / s->s[i]);
+        s->z[i] = fmin(fmax(s->z[i], m->mu / (1e10 * s->s[i])), 1e10 * m->mu / s->s[i]);
       }
       for (i = 0; i < HP_NX; ++i) s->lam[i] += a * (s->lam_new[i] - s->lam[i]);
     }
