@@ -77,6 +77,29 @@ def test_riccati_reaches_ipopts_optimum_from_cold_and_warm_starts(jit_cache, req
         previous = answer
 
 
+@pytest.mark.parametrize("ocp", ["paper", "full", "obstacles"])
+def test_riccati_corrector_takes_fewer_iterations_to_the_same_optimum(jit_cache, request, ocp):
+    """Mehrotra's corrector (the default) against the plain Newton step, warm-started along the recorded loop."""
+    controller, problems = request.getfixturevalue(f"{'obstacle' if ocp == 'obstacles' else ocp}_problems")
+    tr = controller.transcription
+    iterations, answers = {}, {}
+    for corrector in (True, False):
+        solver = make_solver(
+            "riccati_c", tr.nlp, list(tr.lbg == tr.ubg), {"corrector": corrector}, transcription=tr,
+            dual_floor=controller.settings.dual_floor,
+        )
+        previous, iterations[corrector], answers[corrector] = None, [], []
+        for problem in problems:
+            start = {} if previous is None else {"lam_x0": previous["lam_x"], "lam_g0": previous["lam_g"]}
+            previous = solver(**problem.inputs(), **start)
+            assert solver.stats()["success"], f"riccati_c (corrector {corrector}) failed on a recorded {ocp} problem"
+            iterations[corrector].append(solver.stats()["iter_count"])
+            answers[corrector].append(np.asarray(previous["x"]).ravel())
+    for mine, plain in zip(answers[True], answers[False], strict=True):
+        np.testing.assert_allclose(mine, plain, atol=1e-4)
+    assert sum(iterations[True]) < sum(iterations[False]), iterations
+
+
 def test_riccati_from_its_own_answer_is_done_at_once(jit_cache, obstacle_problems, monkeypatch):
     controller, problems = obstacle_problems
     solver = _riccati(controller, floor=1e-12)
@@ -135,7 +158,8 @@ def test_riccati_fails_on_what_it_cannot_take(jit_cache, obstacle_problems):
 @pytest.mark.parametrize(
     ("options", "message"),
     [
-        ({"max_itr": 5}, "unknown option 'max_itr'; the options are tol, mu, max_iter, bound_push"),
+        ({"max_itr": 5}, "unknown option 'max_itr'; the options are tol, mu, max_iter, bound_push, corrector"),
+        ({"corrector": 1}, "option 'corrector' must be True or False, got 1"),
         ({"mu": 1e-8}, "option 'mu' must be below 'tol' (1e-08), got 1e-08"),
         ({"tol": "small"}, "option 'tol' must be a number in (0, 1), got 'small'"),
         ({"max_iter": 2.5}, "option 'max_iter' must be a whole number of at least 1, got 2.5"),

@@ -3,7 +3,7 @@
 fatrop, made for OCPs, keeps many blocks a stage (some 158 KiB a stage of the obstacle OCP), and at N = 80 an
 iteration walks through more than a core's second-level cache holds: a stage costs a fifth more there than
 at N = 10 (README, "Speed"). This solver (``riccati_ipm.c``, its method described at its top) keeps what a
-stage needs together in one struct (10 KiB for the obstacle OCP, 4 KiB for the full one), in the work array
+stage needs together in one struct (11 KiB for the obstacle OCP, 4 KiB for the full one), in the work array
 the caller hands it, and allocates nothing: the C an embedded computer would run. CasADi writes the stage's
 functions (:func:`riccati_functions`: the transcription's own expressions, as :mod:`.stagewise` writes them)
 to C, they and the solver are compiled into one library, and each call goes through
@@ -30,8 +30,9 @@ RICCATI_SOURCE = Path(__file__).with_name("riccati_ipm.c")
 
 #: The solver's options and their defaults: tolerance of the scaled optimality error, the barrier parameter
 #: (fixed), the iteration limit, the least slack of a constraint at the start (the warm start's own
-#: otherwise: where it is active, the slack starts this close to its bound).
-DEFAULTS = {"tol": 1e-8, "mu": 1e-9, "max_iter": 300, "bound_push": 1e-9}
+#: otherwise: where it is active, the slack starts this close to its bound), and whether each Newton step
+#: takes Mehrotra's corrector (the step's second-order term in the complementarity).
+DEFAULTS = {"tol": 1e-8, "mu": 1e-9, "max_iter": 300, "bound_push": 1e-9, "corrector": True}
 
 
 def riccati_functions(transcription: Any, prefix: str) -> dict[str, ca.Function] | None:
@@ -138,6 +139,7 @@ def _config(transcription: Any, functions: Mapping[str, ca.Function], options: M
         "HP_MU": repr(float(options["mu"])),
         "HP_MAX_ITER": int(options["max_iter"]),
         "HP_BOUND_PUSH": repr(float(options["bound_push"])),
+        "HP_CORRECTOR": int(options["corrector"]),
         **work,
         **{macro: f.name() for macro, f in functions.items()},
     }
@@ -161,6 +163,8 @@ def riccati_nlpsol(
             raise RuntimeError(f"option {key!r} must be a number in (0, 1), got {value!r}")
     if settings["mu"] >= settings["tol"]:
         raise RuntimeError(f"option 'mu' must be below 'tol' ({settings['tol']!r}), got {settings['mu']!r}")
+    if not isinstance(settings["corrector"], bool):
+        raise RuntimeError(f"option 'corrector' must be True or False, got {settings['corrector']!r}")
     iterations = settings["max_iter"]
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise RuntimeError(f"option 'max_iter' must be a whole number of at least 1, got {iterations!r}")
