@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import subprocess
+from dataclasses import replace
 
 import casadi as ca
 import numpy as np
@@ -13,8 +14,9 @@ import pytest
 from hitchpark import VehicleTrailer
 from hitchpark.checks import InputError
 from hitchpark.control import NMPCSettings, TrailerNMPC, make_nmpc
+from hitchpark.control.full_ocp import STEER
 from hitchpark.control.generated import GeneratedNLP
-from hitchpark.control.solvers import make_solver
+from hitchpark.control.solvers import make_solver, takes_free_initial
 
 
 def _riccati(controller, floor=None):
@@ -100,6 +102,34 @@ def test_riccati_corrector_takes_fewer_iterations_to_the_same_optimum(jit_cache,
     assert sum(iterations[True]) < sum(iterations[False]), iterations
 
 
+def test_riccati_frees_a_component_of_x0_as_ipopt_does(jit_cache, obstacle_problems):
+    """The free-steer problem among obstacles (X_0's steer freed from the measured one, within the car's
+    steer limit; its row's bounds infinite): riccati_c takes it, from a cold start as the controller gives
+    it, and reaches IPOPT's optimum, a KKT point whose freed row has no multiplier."""
+    controller, problems = obstacle_problems
+    tr = controller.transcription
+    solver = _riccati(controller)
+    ipopt = make_solver("ipopt", tr.nlp, list(tr.lbg == tr.ubg))
+    kkt = _kkt(tr)
+    limit = controller.vehicle.max_steer
+    moved = 0
+    for problem in problems[::4]:
+        lbx, ubx, lbg, ubg = (a.copy() for a in (problem.lbx, problem.ubx, problem.lbg, problem.ubg))
+        lbx[STEER], ubx[STEER] = -limit, limit
+        lbg[STEER], ubg[STEER] = -math.inf, math.inf
+        freed = replace(problem, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        reference = ipopt(**freed.inputs())
+        answer = solver(**freed.inputs())
+        assert solver.stats()["success"] and ipopt.stats()["success"]
+        assert answer["f"] == pytest.approx(float(reference["f"]), rel=1e-5, abs=1e-9)
+        steer = float(answer["x"][STEER])
+        assert steer == pytest.approx(float(reference["x"][STEER]), abs=1e-5)
+        assert answer["lam_g"][STEER] == 0.0
+        _assert_kkt_point(kkt, freed, answer)
+        moved += abs(steer - problem.p[STEER]) > 1e-3
+    assert moved  # the wheels' angle chosen, not the measured one kept
+
+
 def test_riccati_from_its_own_answer_is_done_at_once(jit_cache, obstacle_problems, monkeypatch):
     controller, problems = obstacle_problems
     solver = _riccati(controller, floor=1e-12)
@@ -129,11 +159,17 @@ def test_riccati_fails_on_what_it_cannot_take(jit_cache, obstacle_problems):
         iterations.append(solver.stats()["iter_count"])
     problem = problems[int(np.argmax(iterations))]  # one that takes more than one iteration
     assert max(iterations) > 1
-    # A relaxed X_0 = x0 row (the free-steer problem's, which a structured route cannot take): refused.
-    lbg = problem.lbg.copy()
-    lbg[4] -= 0.1
-    solver(**{**problem.inputs(), "lbg": lbg})
-    assert solver.stats() == {"success": False, "return_status": "not converged (code 4)", "iter_count": 0}
+    # An X_0 = x0 row relaxed but not freed (the free-steer problem frees its row whole, which it takes),
+    # or freed on one side only: refused.
+    for low, high in ((-0.1, 0.0), (-math.inf, 0.0), (0.0, math.inf)):
+        lbg, ubg = problem.lbg.copy(), problem.ubg.copy()
+        lbg[4], ubg[4] = low, high
+        solver(**{**problem.inputs(), "lbg": lbg, "ubg": ubg})
+        assert solver.stats() == {"success": False, "return_status": "not converged (code 4)", "iter_count": 0}
+    lbg, ubg = problem.lbg.copy(), problem.ubg.copy()
+    lbg[4], ubg[4] = -math.inf, math.inf  # X_0's steer free, within no bound: the problem is still solved
+    solver(**{**problem.inputs(), "lbg": lbg, "ubg": ubg})
+    assert solver.stats()["success"]
     # A start it cannot evaluate: refused before any step.
     x0 = problem.w0.copy()
     x0[9] = math.nan
@@ -176,6 +212,7 @@ def test_riccati_stands_in_fatrop_where_nothing_compiles(tmp_path, monkeypatch):
     monkeypatch.setenv("HITCHPARK_JIT", "0")
     nmpc = TrailerNMPC(VehicleTrailer(), NMPCSettings(kind="paper", solver="riccati_c"))
     assert not isinstance(nmpc.solver, GeneratedNLP)
+    assert not takes_free_initial(nmpc.solver)  # a free-steer problem then goes to the relaxed route
     assert nmpc.step(10.0, 3.5, 0.0, 0.0).ok
     assert not (tmp_path / "cache").exists()
 

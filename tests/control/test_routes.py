@@ -90,16 +90,31 @@ def test_a_relaxed_route_that_is_the_fallback_is_the_fallback_solver_itself():
     assert controller._relaxed_solver() is controller._program.fallback is not None
 
 
+def test_riccati_takes_the_free_steer_problem_itself(jit_cache):
+    """``riccati_c`` frees X_0[steer] itself (hitchpark's own solver takes a free component of X_0): no
+    general route is built, and the steer is IPOPT's."""
+    from hitchpark.model.plant import Measurement
+    from hitchpark.model.state import Pose, State
+
+    reference, _ = _free_steer(None, None)  # fatrop_c: IPOPT answers
+    controller = make_nmpc(VehicleTrailer(), NMPCSettings(solver="riccati_c", relaxed_solver="sqp_c"))
+    assert isinstance(controller.solver, GeneratedNLP) and controller._relaxed_solver() is controller.solver
+    steer = controller.initial_steer(Measurement(0.0, State(6.0, 1.0, 0.3, 0.1), 0.0, 0.0), Pose())
+    assert steer == pytest.approx(reference, abs=1e-6)
+    assert controller._program.relaxed is None and controller._program.general is None
+
+
 @pytest.mark.parametrize("name", ["driveway", "bay"])
 def test_among_obstacles_the_relaxed_route_finds_ipopts_free_steer(name):
     """A scene's stage start: the free-steer problem among the scene's lines (and the plan of open space its
-    cold start solves first) goes to ``relaxed_solver``, with IPOPT's steer."""
+    cold start solves first) goes to ``relaxed_solver`` behind fatrop, with IPOPT's steer (riccati_c takes it
+    itself: ``tests/control/test_riccati.py``)."""
     from hitchpark.model.plant import Measurement
 
     sc = builtin_scenario(name)
     steers = {}
     for relaxed in ("sqp_c", None):
-        controller = make_nmpc(sc.vehicle, replace(sc.settings.nmpc, relaxed_solver=relaxed))
+        controller = make_nmpc(sc.vehicle, replace(sc.settings.nmpc, solver="fatrop_c", relaxed_solver=relaxed))
         controller.keep_clear(sc.scene, 0.3)
         m = Measurement(0.0, sc.start, 0.0, 0.0)
         steers[relaxed] = controller.initial_steer(m, sc.goal)

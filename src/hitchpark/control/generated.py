@@ -65,6 +65,13 @@ class GeneratedNLP:
         if self._iterations is not None:
             self._iterations.restype = ctypes.c_int
         self._iter_count: int | None = None
+        self._frees_initial = getattr(lib, f"{name}_frees_initial", None) is not None
+
+    @property
+    def frees_initial(self) -> bool:
+        """Whether this solver takes a problem that frees components of X_0 (their rows' bounds infinite):
+        :mod:`.riccati`'s does, a generated fatrop or sqpmethod does not say."""
+        return self._frees_initial
 
     @property
     def warm_duals(self) -> bool:

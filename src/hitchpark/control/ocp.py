@@ -149,7 +149,8 @@ class NMPCSettings:
         (standing still, the wheels' angle freed, :meth:`.FullNMPC.initial_steer`). A general route (not
         structured): ``"sqp_c"`` by default, a third to a half of IPOPT's time on these problems with
         the same steer; the fallback follows it when it fails. None: the fallback solver (IPOPT if that
-        is structured too). Unused when ``solver`` is itself general.
+        is structured too). Unused when ``solver`` is itself general or takes these problems itself
+        (``riccati_c``, compiled: a component of X_0 freed is one it takes).
     transcription : str
         ``"multiple_shooting"`` (states and inputs are unknowns) or ``"single_shooting"`` (inputs only;
         paper kind only).

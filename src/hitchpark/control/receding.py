@@ -21,7 +21,7 @@ from ..model.plant import Command, Measurement
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer, check_vehicle
 from .ocp import OCP, NMPCSettings
-from .solvers import ROUTES, casadi_reason, make_solver, takes_duals
+from .solvers import ROUTES, casadi_reason, make_solver, takes_duals, takes_free_initial
 from .transcription import make_transcription, shifted_rows
 
 __all__ = ["NLPProblem", "NMPCStep"]
@@ -295,10 +295,13 @@ class RecedingHorizon:
 
         A stage's free-steer problem (:meth:`FullNMPC.initial_steer`, once per stage, standing still) frees
         the equality X_0[steer] = p[steer]; a structure-exploiting route such as fatrop cannot take that.
-        It goes to ``relaxed_solver``, else to :meth:`_general_solver`.
+        It goes to the primary solver where that takes it (``riccati_c``), else to ``relaxed_solver``, else to
+        :meth:`_general_solver`.
         """
         assert self.settings.solver is not None
         program = program or self._program
+        if takes_free_initial(program.solver):
+            return program.solver
         name = self.settings.relaxed_solver
         if not ROUTES[self.settings.solver].structured or name is None:
             return self._general_solver(program)
@@ -335,7 +338,8 @@ class RecedingHorizon:
         p = np.concatenate([x0, self._step_parameters(warm, x0)])
         primary = self._relaxed_solver() if relaxed else self.solver
         duals = None if relaxed or cold or not takes_duals(primary) else self._warm_duals()
-        if self.recorder is not None and primary is self.solver and _finite(warm, p):  # a problem a solver is given
+        # A problem the primary solver is given (not a free-steer problem, which not every route takes).
+        if self.recorder is not None and primary is self.solver and not relaxed and _finite(warm, p):
             arrays = (np.array(a, dtype=float) for a in (p, warm, *bounds))
             self.recorder.append(NLPProblem(*arrays, *(duals or (None, None))))
         ok, status, w, cost = self._solve(primary, p, warm, bounds, duals)

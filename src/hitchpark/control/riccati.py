@@ -115,6 +115,7 @@ CASADI_SYMBOL_EXPORT int {name}_checkout(void) {{ return 0; }}
 CASADI_SYMBOL_EXPORT void {name}_release(int mem) {{ (void) mem; }}
 CASADI_SYMBOL_EXPORT void {name}_set_warm(int warm, double floor) {{ hp_warm_flag = warm; hp_warm_floor = floor; }}
 CASADI_SYMBOL_EXPORT int {name}_iterations(void) {{ return hp_last_iterations; }}
+CASADI_SYMBOL_EXPORT int {name}_frees_initial(void) {{ return 1; }}
 """
 
 

@@ -16,10 +16,13 @@
  *   (H_k + Jc_k' Sigma_k Jc_k) is stage k's block (Sigma = z / s), and
  *   q_k = grad_k - Jc_k' (mu / s - Sigma (c - s)) its gradient (mu: each constraint's target of s z),
  * which leaves an equality-constrained QP with the OCP's structure, solved by the Riccati recursion
- * (Rawlings, Mayne and Diehl, "Model Predictive Control", 2nd ed., section 8.8.3). The reduced Hessian is
- * positive definite on the dynamics' null space exactly when every R_bar_k is (X_0 fixed), checked by
- * their Cholesky factors; where one is not, delta I is added to every block and the recursion is redone
- * (IPOPT's inertia correction). At HP_MU, with HP_CORRECTOR, the step takes Mehrotra's corrector (Nocedal
+ * (Rawlings, Mayne and Diehl, "Model Predictive Control", 2nd ed., section 8.8.3). A component of X_0 may
+ * be freed from x0 (its row's bounds both infinite; a stage's free-steer problem, the wheels' angle chosen
+ * standing still, within its variable bounds): its step is the one that minimizes the cost to go P_0, p_0
+ * given the fixed ones. The reduced Hessian is positive definite on the dynamics' null space exactly when
+ * every R_bar_k is (X_0 fixed), and P_0 on the free components of X_0, checked by their Cholesky factors;
+ * where one is not, delta I is added to every block and the recursion is redone (IPOPT's inertia
+ * correction). At HP_MU, with HP_CORRECTOR, the step takes Mehrotra's corrector (Nocedal
  * and Wright, section 14.2): the same factors solve again for the complementarity s z -> mu - ds dz of the
  * step just found, which it would miss by that product; the corrected step is kept where the fraction to
  * the boundary leaves it at least as long and the line search takes it whole, else the step uncorrected is
@@ -88,6 +91,9 @@ struct hp_work {
   casadi_int iw[HP_SZ_IW];
   real w[HP_SZ_W];
   real e0[HP_NX];      /* x0 - X_0 */
+  signed char free0[HP_NX]; /* 1: X_0's component free of x0 (its row's bounds infinite), bounded as a variable */
+  int n_free;
+  real L0[HP_NX * HP_NX]; /* the factor of P_0 on the free components */
   real theta_max, theta_min;               /* the filter's bounds on theta */
   real filter_theta[HP_MAX_ITER + 1], filter_phi[HP_MAX_ITER + 1];
   int filter_size;
@@ -349,6 +355,17 @@ static int hp_backward(struct hp_work* m) {
       s->p[i] = a;
     }
   }
+  if (m->n_free) { /* X_0's free components minimize the cost to go: P_0 on them positive definite */
+    int a = 0, b;
+    for (j = 0; j < HP_NX; ++j) {
+      if (!m->free0[j]) continue;
+      b = 0;
+      for (i = 0; i < HP_NX; ++i)
+        if (m->free0[i]) m->L0[b++ + m->n_free * a] = m->st[0].P[i + HP_NX * j];
+      ++a;
+    }
+    if (hp_cholesky(m->L0, m->n_free)) return 1;
+  }
   return 0;
 }
 
@@ -376,16 +393,33 @@ static void hp_backward_vectors(struct hp_work* m) {
   }
 }
 
-/* The forward recursion: dw from dX_0 = e0, and the new multipliers -(P dX + p). */
+/* The forward recursion: dw from dX_0 = e0 (its free components those that minimize the cost to go
+ * P_0, p_0), and the new multipliers -(P dX + p). */
 static void hp_forward(struct hp_work* m, const real* e0) {
   int k, i, j;
   real dx[HP_NX];
   memcpy(dx, e0, sizeof(dx));
+  if (m->n_free) {
+    const struct hp_stage* s = &m->st[0];
+    real v[HP_NX];
+    int a = 0;
+    for (i = 0; i < HP_NX; ++i) {
+      real r;
+      if (!m->free0[i]) continue;
+      r = -s->p[i];
+      for (j = 0; j < HP_NX; ++j) if (!m->free0[j]) r -= s->P[i + HP_NX * j] * e0[j];
+      v[a++] = r;
+    }
+    hp_chol_solve(m->L0, m->n_free, v);
+    a = 0;
+    for (i = 0; i < HP_NX; ++i) if (m->free0[i]) dx[i] = v[a++];
+  }
   for (k = 0; k <= HP_N; ++k) {
     struct hp_stage* s = &m->st[k];
     memcpy(s->dw, dx, sizeof(dx));
     for (i = 0; i < HP_NX; ++i) {
       real a = s->p[i];
+      if (k == 0 && m->free0[i]) { s->lam_new[i] = 0.0; continue; } /* no row: no multiplier */
       for (j = 0; j < HP_NX; ++j) a += s->P[i + HP_NX * j] * dx[j];
       s->lam_new[i] = -a;
     }
@@ -424,7 +458,7 @@ static real hp_infeasibility(const struct hp_work* m, const real* x0, int trial)
     const real* w = trial ? s->wt : s->w;
     const real* c = trial ? s->ct : s->c;
     const real* sl = trial ? s->st : s->s;
-    if (k == 0) for (i = 0; i < HP_NX; ++i) sum += fabs(w[i] - x0[i]);
+    if (k == 0) for (i = 0; i < HP_NX; ++i) sum += m->free0[i] ? 0.0 : fabs(w[i] - x0[i]);
     else {
       const struct hp_stage* b = &m->st[k - 1];
       const real* F = trial ? b->Ft : b->F;
@@ -578,7 +612,7 @@ static real hp_error(struct hp_work* m, const real* x0, real mu) {
     }
     for (j = 0; j < nv; ++j) rd = fmax(rd, fabs(r[j]));
     for (j = 0; j < HP_NX; ++j) {
-      real gap = k == 0 ? s->w[j] - x0[j] : s->w[j] - m->st[k - 1].F[j];
+      real gap = k == 0 ? (m->free0[j] ? 0.0 : s->w[j] - x0[j]) : s->w[j] - m->st[k - 1].F[j];
       pr = fmax(pr, fabs(gap));
       sum_l += fabs(s->lam[j]);
     }
@@ -601,7 +635,7 @@ static real hp_error(struct hp_work* m, const real* x0, real mu) {
 
 /* The solve. Returns 0 on convergence; 1: not converged in HP_MAX_ITER iterations; 2: the line search
  * failed; 3: a function was not finite at the start; 4: inputs the method does not take (bounds on the
- * gaps other than 0, or equality rows). */
+ * gaps other than 0, on X_0's rows other than 0 or both infinite, or equality rows). */
 static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, real floor) {
   const real *x_in = arg[0], *p = arg[1], *lbx = arg[2], *ubx = arg[3], *lbg = arg[4], *ubg = arg[5];
   const real *lam_x0 = arg[6], *lam_g0 = arg[7];
@@ -611,12 +645,19 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
   m->iterations = 0;
   m->filter_size = 0;
   m->mu = warm ? HP_MU : HP_MU_COLD;
+  m->n_free = 0;
+  for (i = 0; i < HP_NX; ++i) { /* X_0's rows: X_0 = x0, or the component free (both bounds infinite) */
+    if (!lbg || !ubg) return 4;
+    m->free0[i] = isinf(lbg[i]) && lbg[i] < 0.0 && isinf(ubg[i]) && ubg[i] > 0.0;
+    if (!m->free0[i] && (lbg[i] != 0.0 || ubg[i] != 0.0)) return 4;
+    m->n_free += m->free0[i];
+  }
   /* --- the start --- */
   for (k = 0; k <= HP_N; ++k) {
     struct hp_stage* s = &m->st[k];
     int nv = hp_nv(k), gap = k == 0 ? 0 : hp_gap_at(k - 1), ra = hp_rows_at(k);
     for (i = 0; i < HP_NX; ++i)
-      if (!lbg || !ubg || lbg[gap + i] != 0.0 || ubg[gap + i] != 0.0) return 4;
+      if (k > 0 && (lbg[gap + i] != 0.0 || ubg[gap + i] != 0.0)) return 4;
     for (i = 0; i < nv; ++i) s->w[i] = x_in ? x_in[k * HP_NV + i] : 0.0;
     memset(s->on, 0, sizeof(s->on));
     for (i = 0; i < HP_NR; ++i) {
@@ -644,7 +685,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
       s->s[i] = s->on[i] ? fmax(s->c[i], warm ? HP_BOUND_PUSH : HP_PUSH_COLD * fmax(1.0, fabs(s->bound[i]))) : 1.0;
     /* Multipliers: the caller's (bounds' at least floor), or none (z = 1, lam = 0). */
     for (i = 0; i < HP_NC; ++i) s->z[i] = s->on[i] ? 1.0 : 0.0;
-    for (i = 0; i < HP_NX; ++i) s->lam[i] = warm ? lam_g0[gap + i] : 0.0;
+    for (i = 0; i < HP_NX; ++i) s->lam[i] = warm && !(k == 0 && m->free0[i]) ? lam_g0[gap + i] : 0.0;
     if (warm) {
       for (i = 0; i < HP_NR; ++i) {
         if (!hp_has_rows(k)) break;

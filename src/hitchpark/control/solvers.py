@@ -36,6 +36,7 @@ __all__ = [
     "register_solver",
     "solver_names",
     "takes_duals",
+    "takes_free_initial",
 ]
 
 #: ``factory(equality) -> (CasADi plugin, default options)``; ``equality`` flags the constraints that
@@ -184,6 +185,12 @@ def takes_duals(solver: Any) -> bool:
     but the in-process fatrop ignores them and sqpmethod, given fatrop's, failed on recorded problems: they
     get none."""
     return bool(getattr(solver, "warm_duals", False))
+
+
+def takes_free_initial(solver: Any) -> bool:
+    """Whether ``solver``, a structured one, takes a problem that frees components of X_0 from the measured
+    state (a stage's free-steer problem, :meth:`.Transcription.bounds`): a compiled ``riccati_c``."""
+    return bool(getattr(solver, "frees_initial", False))
 
 
 def make_solver(
