@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import json
 import time
 from dataclasses import replace
@@ -213,6 +214,19 @@ def test_wall_clock_holds_ticks_to_the_period_and_counts_overruns():
     clock.tick()
     assert clock.ticks == 2 and clock.overruns == 1
     assert clock.work_s[1] >= 0.25
+
+
+def test_wall_clock_restart_freezes_what_lives_and_realtime_thaws_it():
+    """A clock's restart (a stage begins, standing still) collects and freezes the objects alive, so that a
+    full collection in a tick does not walk through them; after the run they are collectable again."""
+    gc.unfreeze()
+    before = gc.get_freeze_count()
+    clock = WallClock(0.05)
+    clock.restart()
+    assert gc.get_freeze_count() > before
+    gc.unfreeze()
+    run_realtime(builtin_scenario("parallel"), speed_up=1000.0)
+    assert gc.get_freeze_count() == 0
 
 
 def test_realtime_drives_the_same_maneuver_as_park():
