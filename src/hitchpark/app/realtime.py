@@ -32,7 +32,11 @@ __all__ = ["RealtimeResult", "WallClock", "run_realtime"]
 
 
 class WallClock:
-    """A :class:`~hitchpark.maneuver.process.Clock` holding each tick to ``period_s`` of wall-clock time."""
+    """A :class:`~hitchpark.maneuver.process.Clock` holding each tick to ``period_s`` of wall-clock time.
+
+    Its :meth:`restart` freezes the objects alive for Python's garbage collector (see the top); whoever
+    drives a loop with it calls ``gc.unfreeze()`` after the run, as :func:`run_realtime` does.
+    """
 
     def __init__(self, period_s: float):
         self.period_s = period_s
