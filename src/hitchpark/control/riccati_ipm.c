@@ -646,8 +646,8 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
   m->filter_size = 0;
   m->mu = warm ? HP_MU : HP_MU_COLD;
   m->n_free = 0;
+  if (!lbg || !ubg) return 4;
   for (i = 0; i < HP_NX; ++i) { /* X_0's rows: X_0 = x0, or the component free (both bounds infinite) */
-    if (!lbg || !ubg) return 4;
     m->free0[i] = isinf(lbg[i]) && lbg[i] < 0.0 && isinf(ubg[i]) && ubg[i] > 0.0;
     if (!m->free0[i] && (lbg[i] != 0.0 || ubg[i] != 0.0)) return 4;
     m->n_free += m->free0[i];
@@ -801,7 +801,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
           a_z = hp_to_boundary(m->st[k].on, m->st[k].z, m->st[k].dz, HP_NC, a_z, m->mu);
         }
       } else {
-        /* Back to the uncorrected step: its slack step and dual step again. */
+        /* Back to the step before the second-order correction: its slack step and dual step again. */
         real a_unused;
         for (i = 0; i < HP_NX; ++i) m->e0[i] = x0[i] - m->st[0].w[i];
         for (k = 0; k < HP_N; ++k)
