@@ -42,6 +42,7 @@ __all__ = [
     "generated_function",
     "jit_available",
     "load_cached",
+    "load_source",
     "lock_file",
     "native",
     "resolved_compiler",
@@ -224,6 +225,24 @@ def build_library(
             return False
         os.replace(built, library)
     return True
+
+
+def load_source(name: str, source: Path, load: Callable[[Path], Any]) -> Any:
+    """``load(library)`` of the plain C file ``source`` compiled into the cache (keyed by its text and the
+    tools), as :func:`load_cached`: None where nothing compiles or loads."""
+    text = source.read_text()
+
+    def build(compiler: str, home: Path, library: Path) -> bool:
+        with tempfile.TemporaryDirectory(dir=home) as scratch:
+            built = Path(scratch) / library.name
+            command = [compiler, *FLAGS, "-fPIC", "-shared", str(source), "-lm", "-o", str(built)]
+            done = subprocess.run(command, capture_output=True, text=True, check=False)
+            if done.returncode != 0 or not built.is_file():
+                return False
+            os.replace(built, library)
+        return True
+
+    return load_cached(name, _key(text, ["source", name]), build, load)
 
 
 class LibraryCall:

@@ -12,7 +12,14 @@ from hypothesis import strategies as st
 
 from hitchpark import VehicleTrailer
 from hitchpark.control import NMPCSettings
-from hitchpark.control.clearance import REACH_M, ClearanceConstraints, convex_pieces, separating_lines
+from hitchpark.control import clearance as clearance_module
+from hitchpark.control.clearance import (
+    REACH_M,
+    ClearanceConstraints,
+    convex_pieces,
+    separating_lines,
+    separating_lines_numpy,
+)
 from hitchpark.control.nmpc import COLD_ROUNDS, FullNMPC
 from hitchpark.control.receding import NLPProblem
 from hitchpark.model.collision import clearance
@@ -56,6 +63,56 @@ def test_the_line_gives_the_exact_distance_and_separates(box, seg, polygon_body)
     assert max(ends[0] @ n[0, 0]) == pytest.approx(h[0, 0])
     if true > 1e-9:
         assert min(points @ n[0, 0]) - h[0, 0] == pytest.approx(true, abs=1e-9)  # tight where it is drawn
+
+
+# Coordinates on a coarse grid as well, so that corners fall on segments, ends on edges and gaps tie.
+grid_or_not = st.one_of(coordinate, st.integers(-3, 3).map(float))
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.data())
+def test_the_compiled_lines_are_numpys_to_the_last_bit(jit_cache, data):
+    """Compiled (separating_lines.c), the lines are NumPy's bit for bit: bodies as segments and polygons,
+    one set of segments for every body or each its own, segments of zero length, ties of the nearest pair."""
+    assert clearance_module._kernel(True, str(jit_cache[0])) is not None  # the compiled code, not NumPy again
+    k, c, m = data.draw(st.integers(1, 4)), data.draw(st.sampled_from([2, 4])), data.draw(st.integers(1, 5))
+    each_own = data.draw(st.booleans())
+
+    def array(*shape: int) -> np.ndarray:
+        size = int(np.prod(shape))
+        return np.array(data.draw(st.lists(grid_or_not, min_size=size, max_size=size)), dtype=float).reshape(shape)
+
+    points = array(k, c, 2)
+    ends = array(k, m, 2, 2) if each_own else array(m, 2, 2)
+    free = array(*ends.shape[:-2], 2)
+    compiled = separating_lines(points, ends, free)
+    reference = separating_lines_numpy(points, ends, free)
+    for got, want in zip(compiled, reference, strict=True):
+        assert got.shape == want.shape
+        assert np.array_equal(got, want, equal_nan=True)
+
+
+def test_the_compiled_lines_refuse_shapes_that_do_not_fit(jit_cache):
+    """Where NumPy would not broadcast, the compiled call raises rather than read past an array."""
+    points, ends = np.zeros((3, 4, 2)), np.zeros((2, 5, 2, 2))
+    with pytest.raises(ValueError, match="do not fit 3 bodies"):
+        separating_lines(points, ends, np.zeros((2, 5, 2)))
+    with pytest.raises(ValueError, match="bodies must be"):
+        separating_lines(np.zeros((3, 1, 2)), ends[0], np.zeros((5, 2)))
+
+
+def test_a_scenes_lines_are_the_same_compiled_or_not(jit_cache, monkeypatch):
+    """The NMPC's parameters among obstacles, drawn with the compiled lines and with NumPy's, are equal."""
+    lines = ClearanceConstraints(VEHICLE, 3)
+    lines.use(SCENE, 0.25)
+    goal, rng = Pose(0.5, -0.2, 0.05), np.random.default_rng(11)
+    start = np.array([1.0, 0.0, 0.0, 0.0])
+    plans = [start + np.cumsum(rng.normal(0.0, [0.4, 0.2, 0.05, 0.05], (11, 4)), axis=0) for _ in range(8)]
+    compiled = [lines.parameters(goal, plan, keep_warm=True) for plan in plans]
+    monkeypatch.setattr(clearance_module, "_kernel", lambda *_: None)
+    for plan, got in zip(plans, compiled, strict=True):
+        assert np.array_equal(got, lines.parameters(goal, plan, keep_warm=True))
+    assert any(np.any(got[2::3] != -1.0) for got in compiled)  # lines were drawn, not only unused slots
 
 
 def test_the_scene_is_cut_into_convex_pieces_that_cover_it():

@@ -23,12 +23,19 @@ corners, which are smooth in the state. A prediction that meets the lines keeps 
 that has one, never less. These numbers are parameters of the NLP, so one compiled solver serves every
 scene.
 
-The geometry is plain NumPy over all steps, bodies and pieces at once; the constraint rows are CasADi.
+The geometry is NumPy over all steps, bodies and pieces at once, but for the distance and line between
+each body and each edge of a piece, most of the work: that is compiled C (``separating_lines.c``, the
+same operations in the same order as :func:`separating_lines_numpy`, which runs where nothing compiles).
+The constraint rows are CasADi.
 """
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import math
+import os
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -38,8 +45,9 @@ from ..model.geometry import body_corners
 from ..model.scene import Scene
 from ..model.state import Pose, to_goal_frame
 from ..model.vehicle import VehicleTrailer
+from ..native import jit_available, load_source
 
-__all__ = ["REACH_M", "ClearanceConstraints", "convex_pieces", "separating_lines"]
+__all__ = ["REACH_M", "ClearanceConstraints", "convex_pieces", "separating_lines", "separating_lines_numpy"]
 
 #: Pieces of the scene farther than this from a body in the warm start get no line at that step [m]; a
 #: plan moves far less from one step to the next.
@@ -104,7 +112,57 @@ def _nearest_on(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a + np.clip(t, 0.0, 1.0)[..., None] * d
 
 
+#: The compiled :func:`separating_lines_numpy`.
+SEPARATING_LINES_SOURCE = Path(__file__).with_name("separating_lines.c")
+
+_INT, _PTR = ctypes.c_longlong, ctypes.c_void_p
+
+
+@functools.lru_cache(maxsize=8)
+def _kernel(compiling: bool, cache: str | None) -> Any:
+    """The compiled function, or None where nothing compiles (per compilation switch and cache folder)."""
+    if not compiling:
+        return None
+
+    def load(library: Path) -> Any:
+        function = ctypes.CDLL(str(library)).hp_separating_lines
+        function.restype = ctypes.c_int
+        function.argtypes = [_INT, _INT, _PTR, _INT, _PTR, ctypes.c_int, _PTR, ctypes.c_int, _PTR, _PTR, _PTR]
+        return function
+
+    return load_source("separating_lines", SEPARATING_LINES_SOURCE, load)
+
+
 def separating_lines(
+    points: np.ndarray, ends: np.ndarray, free: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Distance, normal and offset of the line separating each convex body from each segment: see
+    :func:`separating_lines_numpy`, whose answers these are to the last bit, compiled where it can be."""
+    kernel = _kernel(jit_available(), os.environ.get("HITCHPARK_CACHE"))
+    if kernel is None:
+        return separating_lines_numpy(points, ends, free)
+    points = np.ascontiguousarray(points, dtype=float)
+    ends = np.ascontiguousarray(ends if np.ndim(ends) == 4 else np.asarray(ends)[None], dtype=float)
+    free = np.ascontiguousarray(free if np.ndim(free) == 3 else np.asarray(free)[None], dtype=float)
+    if points.ndim != 3 or points.shape[1] < 2 or points.shape[2] != 2:
+        raise ValueError(f"bodies must be (k, c >= 2, 2), got {points.shape}")
+    k, c, m = points.shape[0], points.shape[1], ends.shape[1]
+    if (
+        ends.shape[0] not in (1, k)
+        or ends.shape[2:] != (2, 2)
+        or free.shape[0] not in (1, k)
+        or free.shape[1:] != (m, 2)
+    ):
+        raise ValueError(f"segments {ends.shape} and free normals {free.shape} do not fit {k} bodies")
+    distance, n, h = np.empty((k, m)), np.empty((k, m, 2)), np.empty((k, m))
+    kernel(
+        k, c, points.ctypes.data, m, ends.ctypes.data, int(ends.shape[0] == k and k > 1),
+        free.ctypes.data, int(free.shape[0] == k and k > 1), distance.ctypes.data, n.ctypes.data, h.ctypes.data,
+    )  # fmt: skip
+    return distance, n, h
+
+
+def separating_lines_numpy(
     points: np.ndarray, ends: np.ndarray, free: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Distance, normal and offset of the line separating each convex body from each segment.
