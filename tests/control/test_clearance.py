@@ -101,6 +101,16 @@ def test_the_compiled_lines_refuse_shapes_that_do_not_fit(jit_cache):
         separating_lines(np.zeros((3, 1, 2)), ends[0], np.zeros((5, 2)))
 
 
+def test_where_the_compiler_refuses_the_lines_are_numpys(jit_cache, monkeypatch):
+    """A C compiler that fails leaves the NumPy lines: the same answers, nothing left half-built."""
+    monkeypatch.setenv("CC", "false")  # found on the path, compiles nothing
+    assert clearance_module._kernel(True, str(jit_cache[0])) is None
+    points, ends = np.array([[[0.0, 1.0], [1.0, 1.0], [1.0, 2.0], [0.0, 2.0]]]), np.array([[[-1.0, 0.0], [2.0, 0.0]]])
+    distance, n, h = separating_lines(points, ends, np.array([[0.0, 1.0]]))
+    assert distance[0, 0] == 1.0 and np.array_equal(n[0, 0], [0.0, 1.0]) and h[0, 0] == 0.0
+    assert not list(jit_cache[0].glob("separating_lines-c-*/*.so"))
+
+
 def test_a_scenes_lines_are_the_same_compiled_or_not(jit_cache, monkeypatch):
     """The NMPC's parameters among obstacles, drawn with the compiled lines and with NumPy's, are equal."""
     lines = ClearanceConstraints(VEHICLE, 3)

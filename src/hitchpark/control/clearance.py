@@ -273,6 +273,7 @@ class ClearanceConstraints:
         if scene != self._scene:
             pieces = convex_pieces(scene)
             self._scene, self._pieces, self._framed = scene, (_padded(pieces) if pieces else None), None
+            _kernel(jit_available(), os.environ.get("HITCHPARK_CACHE"))  # loaded now, not in a tick
         self._clearance = float(clearance_m)
 
     def _in_goal_frame(self, goal: Pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
