@@ -229,20 +229,22 @@ def build_library(
 
 def load_source(name: str, source: Path, load: Callable[[Path], Any]) -> Any:
     """``load(library)`` of the plain C file ``source`` compiled into the cache (keyed by its text and the
-    tools), as :func:`load_cached`: None where nothing compiles or loads."""
+    tools), as :func:`load_cached`: None where nothing compiles or loads. No multiply-add is fused (as
+    compilers may where the processor has the instruction), so the C rounds as NumPy does."""
     text = source.read_text()
 
     def build(compiler: str, home: Path, library: Path) -> bool:
         with tempfile.TemporaryDirectory(dir=home) as scratch:
             built = Path(scratch) / library.name
-            command = [compiler, *FLAGS, "-fPIC", "-shared", str(source), "-lm", "-o", str(built)]
+            flags = [*FLAGS, "-ffp-contract=off", "-fPIC", "-shared"]
+            command = [compiler, *flags, str(source), "-lm", "-o", str(built)]
             done = subprocess.run(command, capture_output=True, text=True, check=False)
             if done.returncode != 0 or not built.is_file():
                 return False
             os.replace(built, library)
         return True
 
-    return load_cached(name, _key(text, ["source", name]), build, load)
+    return load_cached(name, _key(text, ["source", name, "-ffp-contract=off"]), build, load)
 
 
 class LibraryCall:
