@@ -47,7 +47,14 @@ from ..model.state import Pose, to_goal_frame
 from ..model.vehicle import VehicleTrailer
 from ..native import jit_available, load_source
 
-__all__ = ["REACH_M", "ClearanceConstraints", "convex_pieces", "separating_lines", "separating_lines_numpy"]
+__all__ = [
+    "REACH_M",
+    "ClearanceConstraints",
+    "convex_pieces",
+    "prepare_lines",
+    "separating_lines",
+    "separating_lines_numpy",
+]
 
 #: Pieces of the scene farther than this from a body in the warm start get no line at that step [m]; a
 #: plan moves far less from one step to the next.
@@ -131,6 +138,12 @@ def _kernel(compiling: bool, cache: str | None) -> Any:
         return function
 
     return load_source("separating_lines", SEPARATING_LINES_SOURCE, load)
+
+
+def prepare_lines() -> bool:
+    """Compile (or load) the compiled lines now, not inside a tick or a planner's clock; False where they
+    do not compile (:func:`separating_lines` then runs NumPy's)."""
+    return _kernel(jit_available(), os.environ.get("HITCHPARK_CACHE")) is not None
 
 
 def separating_lines(
@@ -273,7 +286,7 @@ class ClearanceConstraints:
         if scene != self._scene:
             pieces = convex_pieces(scene)
             self._scene, self._pieces, self._framed = scene, (_padded(pieces) if pieces else None), None
-            _kernel(jit_available(), os.environ.get("HITCHPARK_CACHE"))  # loaded now, not in a tick
+            prepare_lines()
         self._clearance = float(clearance_m)
 
     def _in_goal_frame(self, goal: Pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

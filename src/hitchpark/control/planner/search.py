@@ -14,6 +14,7 @@ from ...model.collision import swept_clearance
 from ...model.scene import Scene
 from ...model.state import Pose, State, check_goal, check_state, goal_frame_position, goal_frame_yaw, to_goal_frame
 from ...model.vehicle import VehicleTrailer, check_vehicle
+from ..clearance import prepare_lines
 from ..pure_pursuit import forward_steer_limit
 from .endgame import EndGame, Landing
 from .grid import Discs, HolonomicHeuristic, distance_grid
@@ -91,7 +92,7 @@ def plan(
 
 
 def _prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: PlannerSettings) -> None:
-    """Build the batch rollouts a search uses before its clock starts.
+    """Build the batch rollouts and pursuits a search uses before its clock starts.
 
     They are compiled to C once per machine (cached on disk, :func:`~hitchpark.native.native`) and loaded
     once per process; that set-up is not planning, and must not eat a search's time limit: a first plan
@@ -103,10 +104,12 @@ def _prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Planne
     for size in (2 * settings.steer_samples, settings.steer_samples):  # all primitives, the reverse ones
         PrimitiveBatch(vehicle, settings.primitive_length_m, settings.samples, size)
     if settings.shot_length_m:
-        EndGame(vehicle, goal, settings)
+        EndGame(vehicle, goal, settings).pursuit.prepare()
     if settings.refine_m:
         planes = 0 if scene.is_empty else REFINE_PLANES
         refine_solver(vehicle, vehicle.max_hitch - settings.hitch_margin, planes, settings.refine_solver)
+        if planes:
+            prepare_lines()  # the refinement's lines around the scene
 
 
 class _Search:
