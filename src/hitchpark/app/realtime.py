@@ -8,10 +8,10 @@ longer than the period is an overrun; the loop does not wait for it to catch up 
 tick at once, as a real-time task would.
 
 Planning happens standing still, between stages (the car holds a stop meanwhile); it is reported as
-``standstill_planning_s`` and is not the work of a tick. So does Python's full garbage collection: each
-(re)start of the clock, standing still, collects and then freezes what lives (``gc.freeze``), so that
-no collection during the ticks walks through the solvers, plans and scene again; at 10 ms ticks one
-such collection had taken 20-27 ms of a tick among obstacles.
+``standstill_planning_s`` and is not the work of a tick. Python's full garbage collection is kept out of
+the ticks too: each (re)start of the clock, standing still, collects and then freezes what lives
+(``gc.freeze``), so that no collection during the ticks walks through the solvers, plans and scene
+again; at 10 ms ticks one such collection had taken 20-27 ms of a tick among obstacles.
 """
 
 from __future__ import annotations
