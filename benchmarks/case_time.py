@@ -26,11 +26,11 @@ from typing import Any
 import numpy as np
 
 import hitchpark.control.generated as generated
-import hitchpark.control.planner.endgame as endgame
-import hitchpark.control.planner.motion as motion
-import hitchpark.control.planner.search as search
 import hitchpark.control.reference as reference
 import hitchpark.model.plant as plant
+import hitchpark.planning.endgame as endgame
+import hitchpark.planning.motion as motion
+import hitchpark.planning.search as search
 from hitchpark.app.sweep import build_config, controller_for, draw_starts
 from hitchpark.control.nmpc import FullNMPC
 from hitchpark.maneuver.process import park

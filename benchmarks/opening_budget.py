@@ -22,10 +22,10 @@ from typing import Any
 
 import numpy as np
 
-import hitchpark.control.planner.opening as opening
-import hitchpark.control.planner.search as search
+import hitchpark.planning.opening as opening
+import hitchpark.planning.search as search
 from hitchpark.app.sweep import build_config, draw_starts
-from hitchpark.control.planner import plan
+from hitchpark.planning import plan
 
 #: (start index, status, nodes expanded, seconds) of each reverse-only search of this worker's plans.
 _SEARCHES: list[tuple[int, str, int, float]] = []

@@ -22,11 +22,11 @@ from pathlib import Path
 import numpy as np
 
 from hitchpark.app.sweep import DEFAULT_REGION, draw_starts
-from hitchpark.control.planner import PlannerSettings, plan
 from hitchpark.maneuver.scenario import load_scenario
 from hitchpark.model import Pose, VehicleTrailer
 from hitchpark.model.scene import Scene
 from hitchpark.model.state import State
+from hitchpark.planning import PlannerSettings, plan
 
 DRIVEWAY = Path(__file__).resolve().parents[1] / "src" / "hitchpark" / "maneuver" / "scenarios" / "driveway.toml"
 

@@ -18,10 +18,10 @@ from dataclasses import replace
 import numpy as np
 
 from hitchpark.app.sweep import DEFAULT_REGION, draw_starts
-from hitchpark.control.planner import PlannerSettings, plan
 from hitchpark.maneuver.scenario import OBSTACLE_SUITE, builtin_scenario
 from hitchpark.model import Pose, VehicleTrailer
 from hitchpark.model.scene import Scene
+from hitchpark.planning import PlannerSettings, plan
 
 CLEARANCE_M = 0.3  # success.min_clearance_m + process.plan_margin_m
 

@@ -363,8 +363,8 @@ def test_a_plant_with_a_compiled_step_pickles_and_steps_the_same(jit_cache):
 def test_compiling_the_planners_rollouts_does_not_eat_its_time_limit(jit_cache):
     """On a cold cache the planner's batch functions compile (seconds) before its clock starts: the first
     plan is the plan a warm cache gives, not a timeout or a poorer path."""
-    from hitchpark.control.planner import PlannerSettings, plan
     from hitchpark.model.state import State
+    from hitchpark.planning import PlannerSettings, plan
 
     cache, _ = jit_cache
     assert not cache.exists()
@@ -383,7 +383,7 @@ def test_nothing_compiles_once_the_planners_clock_runs_among_obstacles(jit_cache
     the rollouts. Before, on a cold cache, the driveway's first plan spent 0.8 s of its 2.5 s compiling them
     and could time out where a warm cache finds the path."""
     from hitchpark import native
-    from hitchpark.control.planner import plan, search
+    from hitchpark.planning import plan, search
 
     clock = {"running": False}
     built_late: list[str] = []

@@ -1,6 +1,6 @@
 """Tracking a planned path segment: pure pursuit of the car forward, of the trailer (virtual steer) in reverse.
 
-A planned path (:mod:`~hitchpark.control.planner`) splits into direction segments; each is driven at
+A planned path (:mod:`~hitchpark.planning`) splits into direction segments; each is driven at
 standstill-to-standstill by a :class:`PathTracker`:
 
 - **Forward**, the car's rear axle pursues the car's rear-axle path (the path's trailer configurations

@@ -1,6 +1,6 @@
 """The planned process: plan a path among the obstacles, track it, and plan again when it cannot be followed.
 
-From the measured start, :func:`~hitchpark.control.planner.plan` finds a path on the full model that
+From the measured start, :func:`~hitchpark.planning.plan` finds a path on the full model that
 keeps ``success.min_clearance_m + process.plan_margin_m`` from the scene and ends at the goal (among
 obstacles, failing that within half the time limit, on the goal line ``process.handover_m`` to
 ``process.approach_m`` out, heading along it, a straight reverse along the line following). The direction
@@ -31,12 +31,12 @@ import numpy as np
 from ..control.guard import Guard
 from ..control.nmpc import FullNMPC, TrailerNMPC
 from ..control.path_tracking import PathTracker, direction_segments
-from ..control.planner import Plan, plan
 from ..control.reference import PathReference
 from ..model.plant import Measurement
 from ..model.scene import Scene
 from ..model.state import Pose, from_goal_frame, to_goal_frame
 from ..model.vehicle import VehicleTrailer
+from ..planning import Plan, plan
 from .result import Outcome
 from .settings import ManeuverSettings
 from .stages import (

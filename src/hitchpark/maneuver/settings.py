@@ -14,8 +14,8 @@ from typing import Any
 from ..checks import Choice, Flag, Integer, Real, build, check_fields, check_keys, check_mapping, checked
 from ..control.ocp import NMPCSettings
 from ..control.path_tracking import TrackingSettings
-from ..control.planner import PlannerSettings
 from ..control.pure_pursuit import PurePursuitSettings
+from ..planning import PlannerSettings
 
 __all__ = [
     "MAX_MANEUVER_TIME",

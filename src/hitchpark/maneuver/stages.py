@@ -18,12 +18,12 @@ from ..checks import InputError
 from ..control.guard import Guard
 from ..control.nmpc import FullNMPC, NMPCStep, TrailerNMPC, make_nmpc
 from ..control.path_tracking import PathTracker
-from ..control.planner import Plan
 from ..control.pure_pursuit import ForwardPursuit
 from ..control.reference import PathReference
 from ..model.plant import Command, Measurement
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
+from ..planning import Plan
 from .result import Outcome
 from .settings import ManeuverSettings
 

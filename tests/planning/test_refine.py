@@ -1,4 +1,4 @@
-"""The optimised end-game (hitchpark.control.planner.refine): exactly at the goal, on the full model, within
+"""The optimised end-game (hitchpark.planning.refine): exactly at the goal, on the full model, within
 every limit, clear of the scene, and the searched path kept when no refined one will do."""
 
 from __future__ import annotations
@@ -11,14 +11,14 @@ import numpy as np
 import pytest
 
 from hitchpark.checks import InputError
-from hitchpark.control.planner import PlannerSettings, plan
-from hitchpark.control.planner.refine import CHECK_STEP_M, refine_end
 from hitchpark.maneuver.scenario import builtin_scenario
 from hitchpark.model import Pose, VehicleTrailer
 from hitchpark.model.collision import swept_clearance
 from hitchpark.model.integrate import step_full
 from hitchpark.model.scene import Scene
 from hitchpark.model.state import State, to_goal_frame
+from hitchpark.planning import PlannerSettings, plan
+from hitchpark.planning.refine import CHECK_STEP_M, refine_end
 
 VEHICLE = VehicleTrailer()
 SETTINGS = PlannerSettings(time_limit_s=60.0)  # generous: tests assert behaviour, never timings

@@ -30,8 +30,8 @@ import shapely
 from scipy import ndimage, sparse
 from scipy.sparse import csgraph
 
-from ...model.scene import Scene
-from ...model.vehicle import VehicleTrailer
+from ..model.scene import Scene
+from ..model.vehicle import VehicleTrailer
 
 __all__ = ["Discs", "DistanceGrid", "HolonomicHeuristic", "distance_grid"]
 

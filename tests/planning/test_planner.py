@@ -1,4 +1,4 @@
-"""The Hybrid A* planner (hitchpark.control.planner): limits along every path, clearance, the three outcomes."""
+"""The Hybrid A* planner (hitchpark.planning): limits along every path, clearance, the three outcomes."""
 
 from __future__ import annotations
 
@@ -9,17 +9,17 @@ import numpy as np
 import pytest
 
 from hitchpark.checks import InputError
-from hitchpark.control.planner import PATH_COLUMNS, Plan, PlannerSettings, plan
-from hitchpark.control.planner.dubins import dubins_words, sample_word
-from hitchpark.control.planner.endgame import EndGame
-from hitchpark.control.planner.motion import PathPursuit, PrimitiveBatch, _pursuit_step_function
-from hitchpark.control.planner.settings import arrived
 from hitchpark.control.pure_pursuit import forward_steer_limit
 from hitchpark.model import Pose, VehicleTrailer, front_steer_from_virtual, full_rhs
 from hitchpark.model.collision import swept_clearance
 from hitchpark.model.integrate import step_full
 from hitchpark.model.scene import Obstacle, Scene
 from hitchpark.model.state import State, to_goal_frame
+from hitchpark.planning import PATH_COLUMNS, Plan, PlannerSettings, plan
+from hitchpark.planning.dubins import dubins_words, sample_word
+from hitchpark.planning.endgame import EndGame
+from hitchpark.planning.motion import PathPursuit, PrimitiveBatch, _pursuit_step_function
+from hitchpark.planning.settings import arrived
 
 VEHICLE = VehicleTrailer()
 SETTINGS = PlannerSettings(time_limit_s=60.0)  # generous: tests assert behaviour, never timings

@@ -31,14 +31,14 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from ...checks import check_choice
-from ...model.collision import swept_clearance
-from ...model.integrate import rk4
-from ...model.kinematics import full_rhs
-from ...model.scene import Scene
-from ...model.state import Pose, from_goal_frame, to_goal_frame
-from ...model.vehicle import VehicleTrailer
-from ..clearance import ClearanceConstraints
+from ..checks import check_choice
+from ..control.clearance import ClearanceConstraints
+from ..model.collision import swept_clearance
+from ..model.integrate import rk4
+from ..model.kinematics import full_rhs
+from ..model.scene import Scene
+from ..model.state import Pose, from_goal_frame, to_goal_frame
+from ..model.vehicle import VehicleTrailer
 from .settings import PATH_COLUMNS, Plan, PlannerSettings
 
 __all__ = [

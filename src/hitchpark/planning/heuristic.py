@@ -21,7 +21,7 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
 
-from ..compiled import cache_dir
+from ..control.compiled import cache_dir
 
 __all__ = ["TrailerTable", "trailer_table"]
 

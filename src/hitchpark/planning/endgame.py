@@ -1,11 +1,11 @@
 """The planner's end-games: single reverse runs from a configuration into the goal tolerance.
 
 Two kinds, both the trailer axle driven backwards by pure pursuit of its virtual steer (Eq. 42), the
-front steer from Eq. (45), rate-limited (:mod:`~hitchpark.control.planner.motion`):
+front steer from Eq. (45), rate-limited (:mod:`~hitchpark.planning.motion`):
 
 - **Goal-line shots**: the axle pursues the goal line y = 0 (goal frame) with a few look-aheads. Cheap
   (one CasADi call per 40 samples); they land from configurations behind the goal roughly facing it.
-- **Dubins shots**: the axle pursues a reverse Dubins path (:mod:`~hitchpark.control.planner.dubins`)
+- **Dubins shots**: the axle pursues a reverse Dubins path (:mod:`~hitchpark.planning.dubins`)
   to a point on the goal line, then the line itself: the words of a few radii above the trailer's
   least radius ``L_T / tan(virtual_limit)`` (Eq. 42), so that pure pursuit, the hitch's transient and the
   steer-rate ramp fit in the margin. They land from almost anywhere in open space with a single
@@ -22,8 +22,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ...model.state import Pose, to_goal_frame
-from ...model.vehicle import VehicleTrailer
+from ..model.state import Pose, to_goal_frame
+from ..model.vehicle import VehicleTrailer
 from .dubins import dubins_words, sample_word
 from .motion import GoalShot, PathPursuit
 from .settings import PlannerSettings, arrived

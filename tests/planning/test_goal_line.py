@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from hitchpark.checks import InputError
-from hitchpark.control.planner import PlannerSettings, plan
-from hitchpark.control.planner.settings import arrived
 from hitchpark.model import VehicleTrailer
 from hitchpark.model.state import Pose, State, to_goal_frame
+from hitchpark.planning import PlannerSettings, plan
+from hitchpark.planning.settings import arrived
 
 
 def test_arrival_is_near_the_window_heading_along_it_with_the_hitch_straight():

@@ -29,10 +29,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from ...model.inverse import front_steer_from_virtual, front_steer_from_virtual_tangent
-from ...model.kinematics import full_rhs
-from ...model.vehicle import VehicleTrailer
-from ...native import native
+from ..model.inverse import front_steer_from_virtual, front_steer_from_virtual_tangent
+from ..model.kinematics import full_rhs
+from ..model.vehicle import VehicleTrailer
+from ..native import native
 
 __all__ = ["GoalShot", "PrimitiveBatch", "commanded_steer"]
 

@@ -8,8 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from ...checks import Choice, InputError, Integer, Real, check_fields, checked
-from ...model.state import wrap_angle
+from ..checks import Choice, InputError, Integer, Real, check_fields, checked
+from ..model.state import wrap_angle
 
 __all__ = ["PATH_COLUMNS", "STATUSES", "Plan", "PlannerSettings", "arrived"]
 
@@ -31,7 +31,7 @@ def _refine_solvers() -> tuple[str, ...]:
 
 @dataclass(frozen=True)
 class PlannerSettings:
-    """How the Hybrid A* planner searches (:func:`~hitchpark.control.planner.plan`).
+    """How the Hybrid A* planner searches (:func:`~hitchpark.planning.plan`).
 
     Parameters
     ----------
@@ -50,7 +50,7 @@ class PlannerSettings:
         Commands per direction, evenly spread (odd counts include straight ahead): forward, front steers
         over +-the cap of :func:`~hitchpark.control.pure_pursuit.forward_steer_limit` (forward motion
         cannot jackknife); in reverse, virtual steers over +-``virtual_limit``, the front steer following
-        from Eq. (45) (:mod:`~hitchpark.control.planner.motion`). The front steer moves towards the
+        from Eq. (45) (:mod:`~hitchpark.planning.motion`). The front steer moves towards the
         command at most ``max_steer_rate``; at a change of direction it is set at standstill.
     virtual_limit : float
         Largest virtual steer of the reverse primitives [rad] (the paper's NMPC bound, 0.5 rad: a
@@ -65,7 +65,7 @@ class PlannerSettings:
     time_limit_s : float
         Wall-clock budget [s]; past it the result is ``timeout``.
     shot_length_m : float
-        End-game (:mod:`~hitchpark.control.planner.endgame`): from every node expanded within this
+        End-game (:mod:`~hitchpark.planning.endgame`): from every node expanded within this
         trailer-axle distance of the goal, behind it and heading within ``shot_max_heading`` of the goal
         heading, reverse runs onto the goal line (pure pursuit of the trailer by its virtual steer,
         look-aheads 2.5, 4 and 6 m) are tried for this length [m], and from every tenth node reverse runs
@@ -80,10 +80,10 @@ class PlannerSettings:
     refine_m : float
         The last this much trailer-axle path [m] of the path's last reverse run (if it ends in reverse) is
         solved again on the full model to end exactly at the goal (or on its line), hitch and steer
-        straight (:mod:`~hitchpark.control.planner.refine`); 0: the path ends where the search stopped.
+        straight (:mod:`~hitchpark.planning.refine`); 0: the path ends where the search stopped.
     refine_solver : str
         The solver of the refined end's NLP: ``fatrop`` (on its stages) or ``ipopt`` (the reference), the
-        same optimum (:data:`~hitchpark.control.planner.refine.REFINE_SOLVERS`).
+        same optimum (:data:`~hitchpark.planning.refine.REFINE_SOLVERS`).
     goal_line_from_m, goal_line_m : float
         The path may end anywhere on the goal line from ``goal_line_from_m`` to ``goal_line_m`` ahead of
         the goal [m] (within the goal tolerance of that segment, heading along it, hitch straight): the
@@ -112,7 +112,7 @@ class PlannerSettings:
         Heuristic cost per radian of hitch angle [m/rad].
     heuristic_radius_m : float
         Turning radius of the trailer axle in the non-holonomic heuristic's table [m]
-        (:mod:`~hitchpark.control.planner.heuristic`); 0 turns the table off.
+        (:mod:`~hitchpark.planning.heuristic`); 0 turns the table off.
     heuristic_weight : float
         Inflation of the heuristic (1: plain A*; larger: greedier, faster, longer paths).
     """
@@ -196,7 +196,7 @@ def arrived(settings: PlannerSettings, gx: Any, gy: Any, gyaw: Any, hitch: Any) 
 
 @dataclass(frozen=True)
 class Plan:
-    """What :func:`~hitchpark.control.planner.plan` found.
+    """What :func:`~hitchpark.planning.plan` found.
 
     ``status``: ``"found"`` (``path`` ends within the goal tolerance and passed the exact swept clearance
     check), ``"no_path"`` (nothing reaches the goal: the search space was exhausted, or the goal or start

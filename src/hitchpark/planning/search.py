@@ -9,13 +9,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from ...checks import InputError, check_instance
-from ...model.collision import swept_clearance
-from ...model.scene import Scene
-from ...model.state import Pose, State, check_goal, check_state, goal_frame_position, goal_frame_yaw, to_goal_frame
-from ...model.vehicle import VehicleTrailer, check_vehicle
-from ..clearance import prepare_lines
-from ..pure_pursuit import forward_steer_limit
+from ..checks import InputError, check_instance
+from ..control.clearance import prepare_lines
+from ..control.pure_pursuit import forward_steer_limit
+from ..model.collision import swept_clearance
+from ..model.scene import Scene
+from ..model.state import Pose, State, check_goal, check_state, goal_frame_position, goal_frame_yaw, to_goal_frame
+from ..model.vehicle import VehicleTrailer, check_vehicle
 from .endgame import EndGame, Landing
 from .grid import Discs, HolonomicHeuristic, distance_grid
 from .heuristic import TrailerTable, trailer_table
@@ -58,7 +58,7 @@ def plan(
     :func:`~hitchpark.model.collision.swept_clearance` (a path that fails it is dropped and the search
     goes on). The search stops within the goal tolerance; the end of the path's last reverse run is
     then solved again to end exactly at the goal, settled (``refine_m``,
-    :mod:`~hitchpark.control.planner.refine`), where that keeps clear. Never raises for a hard problem:
+    :mod:`~hitchpark.planning.refine`), where that keeps clear. Never raises for a hard problem:
     ``status`` says ``no_path`` or ``timeout``. Bad arguments raise :class:`~hitchpark.checks.InputError`.
     """
     vehicle = check_vehicle(vehicle)
@@ -66,7 +66,7 @@ def plan(
     goal = check_goal(goal)
     scene = Scene() if scene is None else check_instance("scene", scene, Scene, "hitchpark.model.Scene(...)")
     settings = PlannerSettings() if settings is None else settings
-    check_instance("settings", settings, PlannerSettings, "hitchpark.control.planner.PlannerSettings(...)")
+    check_instance("settings", settings, PlannerSettings, "hitchpark.planning.PlannerSettings(...)")
     if settings.hitch_margin >= vehicle.max_hitch:
         raise InputError(
             f"planner.hitch_margin must be < max_hitch ({vehicle.max_hitch:g} rad), got {settings.hitch_margin:g}"
