@@ -360,15 +360,15 @@ def test_a_plant_with_a_compiled_step_pickles_and_steps_the_same(jit_cache):
     np.testing.assert_array_equal(plant.state.as_array(), copy.state.as_array())
 
 
-def test_compiling_the_planners_rollouts_does_not_eat_its_time_limit(jit_cache):
-    """On a cold cache the planner's batch functions compile (seconds) before its clock starts: the first
-    plan is the plan a warm cache gives, not a timeout or a poorer path."""
+def test_compiling_the_planners_rollouts_changes_nothing(jit_cache):
+    """On a cold cache the planner's batch functions compile (seconds) before its safety net's clock starts:
+    the first plan is the plan a warm cache gives."""
     from hitchpark.model.state import State
     from hitchpark.planning import PlannerSettings, plan
 
     cache, _ = jit_cache
     assert not cache.exists()
-    settings = PlannerSettings(time_limit_s=1.0)
+    settings = PlannerSettings()
     start = State(12.0, 2.0, math.radians(10.0), 0.0)
     cold = plan(VehicleTrailer(), start, settings=settings)
     assert any(cache.iterdir()), "the rollouts were compiled"
@@ -379,9 +379,8 @@ def test_compiling_the_planners_rollouts_does_not_eat_its_time_limit(jit_cache):
 
 
 def test_nothing_compiles_once_the_planners_clock_runs_among_obstacles(jit_cache, monkeypatch):
-    """The end-game's pursuits compile too, one library per size of reference: before the clock starts, with
-    the rollouts. Before, on a cold cache, the driveway's first plan spent 0.8 s of its 2.5 s compiling them
-    and could time out where a warm cache finds the path."""
+    """The end-game's pursuits compile too, one library per size of reference: before the safety net's clock
+    starts, with the rollouts. The search's budget is a count, so a cold cache finds the warm cache's path."""
     from hitchpark import native
     from hitchpark.planning import plan, search
 
@@ -405,7 +404,7 @@ def test_nothing_compiles_once_the_planners_clock_runs_among_obstacles(jit_cache
     monkeypatch.setattr(native, "cached_library", cached)
     scenario = builtin_scenario("driveway")
     margin = scenario.settings.success.min_clearance_m + scenario.settings.process.plan_margin_m
-    settings = replace(scenario.settings.planner, min_clearance_m=margin, time_limit_s=2.5)  # its first try's
+    settings = replace(scenario.settings.planner, min_clearance_m=margin)
     found = []
     for _ in range(2):  # on a cold cache, then on a warm one
         clock["running"] = False

@@ -10,6 +10,7 @@ import pytest
 
 from hitchpark.checks import InputError
 from hitchpark.control.pure_pursuit import forward_steer_limit
+from hitchpark.maneuver.scenario import builtin_scenario
 from hitchpark.model import Pose, VehicleTrailer, front_steer_from_virtual, full_rhs
 from hitchpark.model.collision import swept_clearance
 from hitchpark.model.integrate import step_full
@@ -22,7 +23,7 @@ from hitchpark.planning.motion import PathPursuit, PrimitiveBatch, _pursuit_step
 from hitchpark.planning.settings import arrived
 
 VEHICLE = VehicleTrailer()
-SETTINGS = PlannerSettings(time_limit_s=60.0)  # generous: tests assert behaviour, never timings
+SETTINGS = PlannerSettings(max_expansions=50_000)  # generous: tests assert behaviour, never timings
 
 
 def box(x0: float, y0: float, x1: float, y1: float) -> list[list[float]]:
@@ -168,12 +169,23 @@ def test_a_start_too_close_to_the_scene_has_no_path():
     assert "start" in result.detail
 
 
-def test_a_tiny_time_limit_is_a_timeout():
+def test_a_tiny_safety_net_is_a_planner_timeout():
     settings = PlannerSettings(time_limit_s=1e-6)
     result = plan(VEHICLE, State(10.0, 3.5, 0.0, 0.0), Pose(), Scene(), settings)
-    assert result.status == "timeout"
+    assert result.status == "planner_timeout"
     assert result.path == {}
     assert not result.found
+
+
+def test_a_spent_budget_is_no_path_with_where_the_search_got_to():
+    """The budget is a count: past it, no_path, naming the node nearest the goal and what is nearest to it."""
+    sc = builtin_scenario("loading_dock")
+    start = State(25.2, 7.0, math.radians(90.0), 0.0)
+    settings = replace(sc.settings.planner, min_clearance_m=0.3, max_expansions=5, shot_length_m=0.0)
+    result = plan(sc.vehicle, start, sc.goal, sc.scene, settings)
+    assert result.status == "no_path" and result.expanded == 5
+    assert "budget of 5 expansions" in result.detail and "closest: trailer axle at" in result.detail
+    assert " m from obstacles[" in result.detail or "area boundary" in result.detail
 
 
 @pytest.mark.parametrize(

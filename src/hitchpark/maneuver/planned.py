@@ -2,7 +2,7 @@
 
 From the measured start, :func:`~hitchpark.planning.plan` finds a path on the full model that
 keeps ``success.min_clearance_m + process.plan_margin_m`` from the scene and ends at the goal (among
-obstacles, failing that within half the time limit, on the goal line ``process.handover_m`` to
+obstacles, failing that within half the planner's expansions, on the goal line ``process.handover_m`` to
 ``process.approach_m`` out, heading along it, a straight reverse along the line following). The direction
 segments become stages between standstills: the full NMPC tracks the last reverse segment to the goal
 (``process.nmpc_tracking``, its reference :class:`~hitchpark.control.reference.PathReference`), a
@@ -153,15 +153,14 @@ class PlannedProcess:
             self.queue = deque(self._stages(None, s.as_array()[None, :], goal))
             return self.queue.popleft()
         self.rounds += 1
-        # Tracked by the NMPC, to the goal itself; among obstacles, if that fails within half the time limit,
-        # to the goal line ``handover_m`` to ``approach`` out (measured: the loading dock is found so, its
-        # approach a sub-goal). Tracked by pure pursuit, the NMPC parks best from a straight approach: to
-        # that stretch of the goal line first, within 60% of the time limit, then to the goal. In open space
-        # the search heads for the goal (its opening then finds more single reverse runs); among obstacles
-        # for the near end of that stretch (measured: the loading dock is found in 2.6 s so, not in 5 s the
-        # other way).
+        # Tracked by the NMPC, to the goal itself; among obstacles, if that fails within half the planner's
+        # expansions (``max_expansions``), to the goal line ``handover_m`` to ``approach`` out (the loading
+        # dock was found so, its approach a sub-goal). Tracked by pure pursuit, the NMPC parks best from a
+        # straight approach: to that stretch of the goal line first, within 60% of the expansions, then to
+        # the goal. In open space the search heads for the goal (its opening then finds more single reverse
+        # runs); among obstacles for the near end of that stretch.
         near = min(self.settings.process.handover_m, approach)
-        budget = self.planner.time_limit_s
+        budget = self.planner.max_expansions
         aim = Pose(*from_goal_frame(goal, near, 0.0, 0.0))
         line = (goal, near, approach, 0.6) if self.scene.is_empty else (aim, 0.0, approach - near, 0.6)
         if approach <= 0.0 or (self._tracked and self.scene.is_empty):
@@ -170,24 +169,25 @@ class PlannedProcess:
             todo = [(goal, 0.0, 0.0, 0.5), line]
         else:
             todo = [line, (goal, 0.0, 0.0, 0.4)]
-        spent = 0.0
+        spent = 0
         for i, (target, first, last, share) in enumerate(todo):
-            limit = share * budget if i < len(todo) - 1 else budget - spent
+            limit = round(share * budget) if i < len(todo) - 1 else budget - spent
             found = plan(
                 self.vehicle,
                 measurement.state,
                 target,
                 self.scene,
-                replace(self.planner, goal_line_from_m=first, goal_line_m=last, time_limit_s=max(limit, 0.1)),
+                replace(self.planner, goal_line_from_m=first, goal_line_m=last, max_expansions=max(limit, 1)),
             )
             self.plans.append(found)
-            spent += found.planning_s
+            spent += found.expanded
             if found.found:
                 break
         if not found.found:
             if self.scene.is_empty:
                 return self._fall_back(measurement, goal)
-            return Ending(Outcome.NO_PATH, f"planner: {found.status}: {found.detail}")
+            outcome = Outcome.PLANNER_TIMEOUT if found.status == "planner_timeout" else Outcome.NO_PATH
+            return Ending(outcome, f"planner: {found.status}: {found.detail}")
         self.queue = deque(self._stages(found.path["direction"], found.states, goal, found.path["front_steer"]))
         return self.queue.popleft()
 

@@ -114,6 +114,7 @@ class Outcome(StrEnum):
     LIMITS_EXCEEDED = "limits exceeded"
     COLLISION = "collision"  # a body touched an obstacle, left the area, or came closer than min_clearance_m
     NO_PATH = "no_path"  # the planner found no way (or gave up replanning); the car was stopped
+    PLANNER_TIMEOUT = "planner_timeout"  # the planner's wall-clock safety net passed; the car was stopped
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,7 @@ from ..model.vehicle import VehicleTrailer
 from .dubins import dubins_words, sample_word
 from .motion import GoalShot, PathPursuit
 from .settings import PlannerSettings, arrived
+from .tree import GoalTree
 
 __all__ = ["EndGame", "Landing"]
 
@@ -45,6 +46,10 @@ DUBINS_WORDS = 3
 
 #: Look-ahead of the pursuit along a Dubins reference [m].
 DUBINS_LOOKAHEAD_M = 2.0
+
+#: Look-aheads of the pursuit along a goal tree's paths [m]: each near node's path with each (a longer one
+#: cuts the tree path's bends, a shorter one swings the hitch further).
+TREE_LOOKAHEADS = (2.0, 3.0, 4.5)
 
 #: A Dubins run farther than this from its reference is given up [m].
 DUBINS_MAX_DEVIATION_M = 2.0
@@ -98,7 +103,7 @@ class EndGame:
         step = s.sample_step_m
         if math.hypot(gx, gy) > max_length:
             return []
-        references, longest = [], 0
+        references = []
         tail = DUBINS_LOOKAHEAD_M + s.goal_tolerance_m + step
         for factor in DUBINS_RADII:
             radius = factor * self.least_radius
@@ -111,22 +116,61 @@ class EndGame:
                     line = np.arange(approach - step, -tail, -step)
                     points = np.vstack([points, np.column_stack([line, np.zeros(len(line))])])
                     references.append(points)
-                    longest = max(longest, len(points))
+        start = np.array([gx, gy, gyaw, state[3], steer])
+        return self._pursue(start, references, s.virtual_limit, takes, within)
+
+    def tree_shots(self, state: np.ndarray, steer: float, tree: GoalTree) -> list[Landing]:
+        """Reverse runs from ``state`` along the paths of the nearest nodes of ``tree`` into the goal (the
+        trailer axle pursuing each, as a Dubins shot pursues its word, at the tree's virtual steer), shortest first."""
+        near = tree.near(state, self.pursuit.runs // len(TREE_LOOKAHEADS))
+        if len(near) == 0:
+            return []
+        s = self.settings
+        step = s.sample_step_m
+        tail = np.arange(-step, -(DUBINS_LOOKAHEAD_M + s.goal_tolerance_m + step), -step)  # on along the goal line
+        references = []
+        for node in near:
+            path = tree.path(int(node))
+            gx, gy, _ = to_goal_frame(self.goal, path[:, 0], path[:, 1], path[:, 2])
+            reference = np.vstack([np.column_stack([gx, gy]), np.column_stack([tail, np.zeros(len(tail))])])
+            references += [reference] * len(TREE_LOOKAHEADS)
+        lookaheads = np.resize(TREE_LOOKAHEADS, len(references))
+        gx, gy, gyaw = self.in_goal_frame(state)
+        start = np.array([gx, gy, gyaw, state[3], steer])
+        return self._pursue(start, references, s.obstacle_virtual_limit, lookaheads=lookaheads)
+
+    def _pursue(
+        self,
+        start: np.ndarray,
+        references: list[np.ndarray],
+        limit: float,
+        takes: Callable[[Landing], bool] | None = None,
+        within: int | None = None,
+        lookaheads: np.ndarray | None = None,
+    ) -> list[Landing]:
+        """The landings of reverse runs from ``start`` (goal frame) pursuing ``references`` (goal frame, (m, 2)
+        each, at most the pursuit's runs) at the virtual steer ``limit``, each with its look-ahead [m] (default
+        :data:`DUBINS_LOOKAHEAD_M`); ``takes`` and ``within``: see :meth:`dubins_shots`."""
         if not references:
             return []
-        while len(references) < self.pursuit.runs:  # fewer words than runs: repeat the last
+        references = list(references)
+        while len(references) < self.pursuit.runs:  # fewer references than runs: repeat the last
             references.append(references[-1])
+        longest = max(len(r) for r in references)
         padded = np.stack([np.vstack([r, np.repeat(r[-1:], longest - len(r), axis=0)]) for r in references])
-        start = np.array([gx, gy, gyaw, state[3], steer])
-        lookaheads = np.full(self.pursuit.runs, DUBINS_LOOKAHEAD_M)
+        runs = self.pursuit.runs
+        ahead = np.full(runs, DUBINS_LOOKAHEAD_M)
+        if lookaheads is not None:
+            ahead[: len(lookaheads)] = lookaheads
+            ahead[len(lookaheads) :] = lookaheads[-1]  # the repeated last reference's
         settles = None
         if takes is not None:
 
             def settles(run: np.ndarray) -> bool:  # a run that ended: a landing the caller takes?
                 return bool(self.at_goal(run[-1])) and takes(self._world(run[1:]))
 
-        runs = self.pursuit.run(start, padded, lookaheads, s.virtual_limit, self._dubins_ended, settles, within)
-        return self._landings(runs)
+        found = self.pursuit.run(start, padded, ahead, limit, self._dubins_ended, settles, within)
+        return self._landings(found)
 
     def dubins_estimate(self, state: np.ndarray) -> float:
         """Length [m] of the shortest Dubins reference from ``state`` with the longest approach (trailer axle).

@@ -76,6 +76,21 @@ class Discs:
         xv, yv = x_r + cv * self.vehicle_x - sv * self.vehicle_y, y_r + sv * self.vehicle_x + cv * self.vehicle_y
         return np.concatenate([xt, xv], axis=-1), np.concatenate([yt, yv], axis=-1)
 
+    def clear_of(self, grid: DistanceGrid, need: np.ndarray, states: np.ndarray) -> np.ndarray:
+        """Per motion (n, k + 1, 4): True if samples 1..k keep every point ``need`` (per point) clear on ``grid``,
+        with half the bodies' movement to the next sample more."""
+        half_move = 0.5 * self.movement(states)  # (n, k)
+        x, y = self.centres(states[:, 1:, :])  # (n, k, points)
+        ok = grid.clear(x, y, need[None, None, :] + half_move[:, :, None])
+        return np.all(ok, axis=(1, 2))
+
+    def surely_blocked(self, grid: DistanceGrid, clearance: float, states: np.ndarray) -> bool:
+        """True if some outline point at some configuration (k, 4) is surely nearer the scene than ``clearance``:
+        then so is the body, and the exact swept clearance would refuse the motion (the grid's distance is
+        within two of its errors of a point's true one)."""
+        x, y = self.centres(states)
+        return bool((grid.lookup(x, y) + 2.0 * grid.error < clearance).any())
+
     def movement(self, states: np.ndarray) -> np.ndarray:
         """Largest body-point movement [m] between consecutive samples along axis -2 of ``states`` (..., k, 4)."""
         delta = np.diff(states, axis=-2)

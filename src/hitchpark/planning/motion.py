@@ -212,15 +212,22 @@ class PrimitiveBatch:
         ``start``: (x, y, yaw, hitch); ``steer0``, ``command``, ``direction`` (+1 forward, -1 reverse): one
         per primitive.
         """
+        starts = np.broadcast_to(np.asarray(start, dtype=float)[:4], (len(command), 4))
+        return self.run_from(starts, steer0, command, direction)
+
+    def run_from(
+        self, starts: np.ndarray, steer0: np.ndarray, command: np.ndarray, direction: np.ndarray
+    ) -> np.ndarray:
+        """As :meth:`run`, each primitive from its own start: ``starts`` (n, 4), ``n <= size``."""
         n = len(command)
         x0 = np.zeros((5, self.size))
-        x0[:4] = np.asarray(start, dtype=float)[:4, None]
+        x0[:4, :n] = np.asarray(starts, dtype=float)[:, :4].T
         x0[4, :n] = steer0
         c = np.zeros(self.size)
         c[:n] = command
         d = np.ones(self.size)
         d[:n] = direction
-        out = np.asarray(self._mapped(x0, c, d))  # (5, size * (samples + 1))
+        out = np.asarray(self._mapped(x0, c, d))
         return out.reshape(5, self.size, self.samples + 1).transpose(1, 2, 0)[:n]
 
 

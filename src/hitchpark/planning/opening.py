@@ -61,9 +61,10 @@ def opening(search: _Search, nodes: list[Node], h_start: float) -> int | None:
         best, best_cost = direct, search._length(nodes, direct)
         if best_cost <= distance + s.weight_switch:
             return best
-    status, found = search._astar(nodes, h_start, reverse_only=True, budget=OPENING_REVERSE_NODES)
-    if status == "found" and search._length(nodes, found) < best_cost:
-        best, best_cost = found, search._length(nodes, found)
+    if search.tree is None:  # (a goal tree holds the single reverse runs in already: its shots tried them)
+        status, found = search._astar(nodes, h_start, reverse_only=True, budget=OPENING_REVERSE_NODES)
+        if status == "found" and search._length(nodes, found) < best_cost:
+            best, best_cost = found, search._length(nodes, found)
     forward = search.steer_samples_forward
     motions = search.opening_batch.run(search.start, forward, forward, np.ones(len(forward)))
     candidates = []
@@ -72,7 +73,7 @@ def opening(search: _Search, nodes: list[Node], h_start: float) -> int | None:
         trailer = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(arc[:, :2], axis=0).T))])
         for k in range(OPENING_STRIDE, len(arc), OPENING_STRIDE):
             if ok[k - 1] and abs(arc[k, 3]) <= OPENING_MAX_HITCH and search._clear(arc[None, : k + 1, :4])[0]:
-                estimate_k = trailer[k] + endgame.dubins_estimate(arc[k])
+                estimate_k = trailer[k] + search.estimate(arc[k])
                 candidates.append((estimate_k + s.heuristic_hitch_m * abs(arc[k, 3]), arc[: k + 1]))
     candidates.sort(key=lambda c: c[0])
     for estimate_k, arc in candidates[:OPENING_TRIES]:

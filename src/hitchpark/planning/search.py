@@ -12,7 +12,7 @@ import numpy as np
 from ..checks import InputError, check_instance
 from ..control.clearance import prepare_lines
 from ..control.pure_pursuit import forward_steer_limit
-from ..model.collision import swept_clearance
+from ..model.collision import closest, swept_clearance
 from ..model.scene import Scene
 from ..model.state import Pose, State, check_goal, check_state, goal_frame_position, goal_frame_yaw, to_goal_frame
 from ..model.vehicle import VehicleTrailer, check_vehicle
@@ -24,6 +24,7 @@ from .nodes import Node
 from .opening import OPENING_FORWARD_M, opening
 from .refine import REFINE_PLANES, refine_plan, refine_solver
 from .settings import Plan, PlannerSettings, arrived
+from .tree import NEAR_M, TREE_MAX_M, GoalTree, goal_tree
 
 __all__ = ["plan"]
 
@@ -36,7 +37,7 @@ DUBINS_EVERY = 10
 #: How many times a search that exhausts its grid is repeated on a grid twice as fine.
 REFINEMENTS = 2
 
-#: Cap on the nodes of one search (memory bound; the time limit usually ends a search first).
+#: Cap on the nodes of one search (memory bound; ``max_expansions`` ends a search first).
 MAX_NODES = 2_000_000
 
 
@@ -59,7 +60,8 @@ def plan(
     goes on). The search stops within the goal tolerance; the end of the path's last reverse run is
     then solved again to end exactly at the goal, settled (``refine_m``,
     :mod:`~hitchpark.planning.refine`), where that keeps clear. Never raises for a hard problem:
-    ``status`` says ``no_path`` or ``timeout``. Bad arguments raise :class:`~hitchpark.checks.InputError`.
+    ``status`` says ``no_path`` (or ``planner_timeout``, the wall-clock safety net). Bad arguments raise
+    :class:`~hitchpark.checks.InputError`.
     """
     vehicle = check_vehicle(vehicle)
     check_state(vehicle, start)
@@ -105,11 +107,55 @@ def _prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Planne
         PrimitiveBatch(vehicle, settings.primitive_length_m, settings.samples, size)
     if settings.shot_length_m:
         EndGame(vehicle, goal, settings).pursuit.prepare()
+    if uses_tree(scene, settings):
+        goal_tree(vehicle, goal, scene, tree_settings(settings), scene_bounds(vehicle, goal, scene, settings))
     if settings.refine_m:
         planes = 0 if scene.is_empty else REFINE_PLANES
         refine_solver(vehicle, vehicle.max_hitch - settings.hitch_margin, planes, settings.refine_solver)
         if planes:
             prepare_lines()  # the refinement's lines around the scene
+
+
+def uses_tree(scene: Scene, settings: PlannerSettings) -> bool:
+    """Whether a plan uses a goal tree (:mod:`.tree`): among obstacles, with end-games."""
+    return not scene.is_empty and settings.shot_length_m > 0
+
+
+#: The settings a goal tree depends on (the others are reset, so that one tree serves every plan to its goal).
+TREE_FIELDS = (
+    "xy_resolution_m",
+    "yaw_bins",
+    "hitch_bins",
+    "primitive_length_m",
+    "sample_step_m",
+    "steer_samples",
+    "obstacle_virtual_limit",
+    "hitch_margin",
+    "min_clearance_m",
+    "collision_cell_m",
+    "search_margin_m",
+    "weight_steer_change",
+)
+
+
+def tree_settings(settings: PlannerSettings) -> PlannerSettings:
+    return PlannerSettings(**{name: getattr(settings, name) for name in TREE_FIELDS})
+
+
+def scene_bounds(
+    vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: PlannerSettings, start: np.ndarray | None = None
+) -> tuple[float, float, float, float]:
+    """Where the search may go: the area's box, or the goal, the obstacles (and the start) with a margin."""
+    if scene.area is not None:
+        lo, hi = scene.area.boundary.min(axis=0), scene.area.boundary.max(axis=0)
+        return float(lo[0]) - 1.0, float(lo[1]) - 1.0, float(hi[0]) + 1.0, float(hi[1]) + 1.0
+    points = [np.array([[goal.x, goal.y]])] + [o.polygon for o in scene.obstacles]
+    if start is not None:
+        points.append(np.asarray(start, dtype=float)[None, :2])
+    allp = np.vstack(points)
+    m = settings.search_margin_m + vehicle.trailer_length + vehicle.wheelbase
+    lo, hi = allp.min(axis=0) - m, allp.max(axis=0) + m
+    return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
 
 
 class _Search:
@@ -125,7 +171,7 @@ class _Search:
         opening_samples = round(OPENING_FORWARD_M / s.sample_step_m)
         self.opening_batch = PrimitiveBatch(vehicle, OPENING_FORWARD_M, opening_samples, s.steer_samples)
         self.discs = Discs(vehicle)
-        self.bounds = self._bounds()
+        self.bounds = scene_bounds(vehicle, goal, scene, s, self.start)
         self.grid = distance_grid(scene, self.bounds, s.collision_cell_m)
         self.need = self.discs.radius + s.min_clearance_m
         self.holonomic: HolonomicHeuristic | None = None
@@ -137,7 +183,11 @@ class _Search:
         self.table: TrailerTable | None = None
         if s.heuristic_radius_m > 0:
             self.table = trailer_table(s.heuristic_radius_m, 0.5, 72, 1.0, s.weight_forward, s.weight_reverse)
+        self.tree: GoalTree | None = None
+        if uses_tree(scene, s):
+            self.tree = goal_tree(vehicle, goal, scene, tree_settings(s), scene_bounds(vehicle, goal, scene, s))
         self.expanded = 0
+        self.closest: Node | None = None  # the expanded node nearest the goal (for a plan that finds nothing)
         self.exhausted = False  # set when the open set ran empty: nothing more at this resolution
 
     # --- set-up ------------------------------------------------------------------------------------------
@@ -173,18 +223,6 @@ class _Search:
         finally:
             self._set_limit(s, s.virtual_limit)
 
-    def _bounds(self) -> tuple[float, float, float, float]:
-        """Where the search may go: the area's box, or the start, goal and obstacles with a margin."""
-        if self.scene.area is not None:
-            lo, hi = self.scene.area.boundary.min(axis=0), self.scene.area.boundary.max(axis=0)
-            return float(lo[0]) - 1.0, float(lo[1]) - 1.0, float(hi[0]) + 1.0, float(hi[1]) + 1.0
-        points = [self.start[None, :2], np.array([[self.goal.x, self.goal.y]])]
-        points += [o.polygon for o in self.scene.obstacles]
-        allp = np.vstack(points)
-        m = self.settings.search_margin_m + self.vehicle.trailer_length + self.vehicle.wheelbase
-        lo, hi = allp.min(axis=0) - m, allp.max(axis=0) + m
-        return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
-
     def _key(self, state: np.ndarray) -> tuple[int, int, int, int]:
         s = self.settings
         yaw_cell = 2 * math.pi / s.yaw_bins
@@ -213,6 +251,10 @@ class _Search:
         if self.table is not None:
             h = np.fmax(h, self.table(gx, gy, gyaw))  # nan (off the table) leaves h
         h = h + s.heuristic_hitch_m * np.abs(states[:, 3])
+        if self.tree is not None:
+            # By way of the goal tree where a node of it is near (a single reverse run in is known from there);
+            # elsewhere a change of direction more, at least, is likely.
+            h = np.where(np.isfinite(by_tree := self.tree.estimate(states)), by_tree, h + s.weight_switch)
         return np.asarray(s.heuristic_weight * h, dtype=float)
 
     def _at_goal(self, states: np.ndarray) -> np.ndarray:
@@ -226,10 +268,7 @@ class _Search:
             x_ok = (states[:, 1:, 0] > self.bounds[0]) & (states[:, 1:, 0] < self.bounds[2])
             y_ok = (states[:, 1:, 1] > self.bounds[1]) & (states[:, 1:, 1] < self.bounds[3])
             return np.all(x_ok & y_ok, axis=1)
-        half_move = 0.5 * self.discs.movement(states)  # (n, k)
-        x, y = self.discs.centres(states[:, 1:, :])  # (n, k, discs)
-        ok = self.grid.clear(x, y, self.need[None, None, :] + half_move[:, :, None])
-        return np.all(ok, axis=(1, 2))
+        return self.discs.clear_of(self.grid, self.need, states)
 
     # --- search ------------------------------------------------------------------------------------------
 
@@ -274,19 +313,20 @@ class _Search:
             return self._done("found", "the start is within the goal tolerance", nodes, 0)
         nodes = [Node(self.start, 0.0, 0, 0.0, -1, np.zeros((0, 4)), np.zeros(0))]
         h_start = float(self._heuristic(self.start[None, :])[0])
-        if time.perf_counter() - self.began > s.time_limit_s:
-            return self._done("timeout", f"no path within the time limit of {s.time_limit_s:g} s")
+        if time.perf_counter() - self.began > s.time_limit_s:  # the safety net (a tiny one, say)
+            return self._done("planner_timeout", f"no path within the safety net of {s.time_limit_s:g} s")
         if self.endgame is not None:
             found = self._openings(nodes, h_start)
             if found is not None:
                 return self._done("found", "within the goal tolerance (opening)", nodes, found)
-        status, found = self._astar(nodes, h_start, reverse_only=False, budget=MAX_NODES)
+        status, found = self._astar(nodes, h_start, reverse_only=False, budget=s.max_expansions)
         if status == "found":
             return self._done("found", "within the goal tolerance", nodes, found)
-        if status == "timeout":
-            return self._done("timeout", f"no path within the time limit of {s.time_limit_s:g} s")
+        if status == "planner_timeout":
+            return self._done("planner_timeout", f"no path within the safety net of {s.time_limit_s:g} s")
         if status == "budget":
-            return self._done("timeout", f"the search passed {MAX_NODES} nodes")
+            spent = f"the search spent its budget of {s.max_expansions} expansions"
+            return self._done("no_path", f"{spent}; {self._stuck(nodes)}")
         self.exhausted = True
         return self._done(
             "no_path",
@@ -294,10 +334,10 @@ class _Search:
         )
 
     def _astar(self, nodes: list[Node], h_start: float, reverse_only: bool, budget: int) -> tuple[str, int]:
-        """Hybrid A* from node 0: ("found", goal node), ("timeout" | "budget" | "exhausted", -1).
+        """Hybrid A* from node 0: ("found", goal node), ("planner_timeout" | "budget" | "exhausted", -1).
 
         ``reverse_only``: reverse primitives only (the single reverse runs of the opening); ``budget``: the
-        most nodes expanded.
+        most nodes this call expands, and the plan's :attr:`expanded` stays within ``max_expansions``.
         """
         s = self.settings
         # The reverse primitives are the second half of the commands.
@@ -309,10 +349,10 @@ class _Search:
         closed: set[tuple[int, int, int, int]] = set()
         expanded = 0
         while heap:
-            if time.perf_counter() - self.began > s.time_limit_s:
-                return "timeout", -1
-            if expanded >= budget or len(nodes) > MAX_NODES:
+            if expanded >= budget or self.expanded >= s.max_expansions or len(nodes) > MAX_NODES:
                 return "budget", -1
+            if time.perf_counter() - self.began > s.time_limit_s:  # the safety net, never the budget
+                return "planner_timeout", -1
             _, index = heapq.heappop(heap)
             node = nodes[index]
             key = self._key(node.state)
@@ -321,6 +361,8 @@ class _Search:
             closed.add(key)
             self.expanded += 1
             expanded += 1
+            if self.closest is None or self._remaining(node) < self._remaining(self.closest):
+                self.closest = node
             if self.endgame is not None and index > 0:
                 found = self._land(nodes, index, dubins=expanded % DUBINS_EVERY == 0, max_length=s.shot_length_m)
                 if found is not None:
@@ -372,6 +414,31 @@ class _Search:
                 heapq.heappush(heap, (g + float(h[row]), len(nodes) - 1))
         return "exhausted", -1
 
+    def _remaining(self, node: Node) -> float:
+        """How far ``node`` is from the goal (:meth:`_stuck`): trailer-axle distance, 3 m per radian of heading."""
+        gx, gy, gyaw = to_goal_frame(self.goal, float(node.state[0]), float(node.state[1]), float(node.state[2]))
+        return math.hypot(gx, gy) + 3.0 * abs(gyaw)
+
+    def _stuck(self, nodes: list[Node]) -> str:
+        """Where a search that found nothing got to: its node nearest the goal, and what is nearest to it."""
+        node = self.closest if self.closest is not None else nodes[0]
+        gx, gy, gyaw = to_goal_frame(self.goal, float(node.state[0]), float(node.state[1]), float(node.state[2]))
+        where = (
+            f"closest: trailer axle at ({node.state[0]:.2f}, {node.state[1]:.2f}) m, {math.hypot(gx, gy):.2f} m and "
+            f"{math.degrees(abs(gyaw)):.0f} deg from the goal, hitch {math.degrees(node.state[3]):.0f} deg"
+        )
+        if self.scene.is_empty:
+            return where
+        contact = closest(self.vehicle, self.scene, *(float(v) for v in node.state[:4]))
+        return where if contact is None else f"{where}; there {contact.describe()}"
+
+    def estimate(self, state: np.ndarray) -> float:
+        """Length [m] of a single reverse run from ``state`` into the goal: by way of the goal tree where a node
+        of it is near, else the shortest Dubins reference (:meth:`.endgame.EndGame.dubins_estimate`)."""
+        assert self.endgame is not None
+        by_tree = math.inf if self.tree is None else float(self.tree.estimate(state[None, :4])[0])
+        return min(by_tree, self.endgame.dubins_estimate(state))
+
     def _length(self, nodes: list[Node], last: int) -> float:
         """Trailer-axle length [m] of the path ending at node ``last``, and of the straight along the goal line
         from its end to the goal that follows it (a path to the goal line's far end is that much longer)."""
@@ -382,8 +449,9 @@ class _Search:
     def _land(self, nodes: list[Node], index: int, dubins: bool, max_length: float) -> int | None:
         """End-games from node ``index`` (:mod:`.endgame`); the new goal node's index if one lands clear.
 
-        The landings are tried shortest (in samples) first; the first longer than ``max_length`` (trailer
-        axle) ends the tries.
+        The landings are tried shortest (in samples) first; those longer than ``max_length`` (trailer axle) are
+        passed over, except along the goal tree (its paths are as long as it holds them,
+        :data:`~.tree.TREE_MAX_M`, and the pursuit's start within :data:`~.tree.NEAR_M` of them).
         """
         assert self.endgame is not None
         node = nodes[index]
@@ -391,6 +459,9 @@ class _Search:
         if node.direction != -1:  # at standstill: the steer the run asks first (virtual steer 0 as a stand-in)
             steer = float(self._initial_steer(float(node.state[3]))[self.straight_back])
         landings = self.endgame.line_shots(node.state, steer)
+        along_tree: list[Landing] = []
+        if self.tree is not None:
+            along_tree = self.endgame.tree_shots(node.state, steer, self.tree)
         if dubins:
             takes, within = None, None
             if self.scene.is_empty:
@@ -401,9 +472,11 @@ class _Search:
 
                 within = min((len(landing[0]) for landing in landings if takes(landing)), default=None)
             landings += self.endgame.dubins_shots(node.state, steer, max_length, takes, within)
-        for world, steers in sorted(landings, key=lambda landing: len(landing[0])):
-            if self._too_long(node, world, max_length):
-                break
+        candidates = [(landing, max_length) for landing in landings]
+        candidates += [(landing, TREE_MAX_M + 2 * NEAR_M) for landing in along_tree]
+        for (world, steers), limit in sorted(candidates, key=lambda candidate: len(candidate[0][0])):
+            if self._too_long(node, world, limit):
+                continue
             fast = self._fast_clear(node, world)
             if not fast and (self.scene.is_empty or not self._exactly_clear(world)):
                 continue
@@ -424,7 +497,10 @@ class _Search:
 
     def _exactly_clear(self, samples: np.ndarray) -> bool:
         """Samples (k, 4) keep ``min_clearance_m`` by the exact swept clearance (a landing the fast check
-        refuses: its error, about 0.12 m, is more than a goal at a curb leaves, 0.025 m on curb_parallel)."""
+        refuses: its error, about 0.12 m, is more than a goal at a curb leaves, 0.025 m on curb_parallel).
+        Not asked where the grid already shows a body surely too near."""
+        if self.discs.surely_blocked(self.grid, self.settings.min_clearance_m, samples):
+            return False
         bound, _ = swept_clearance(self.vehicle, self.scene, samples)
         return bool(bound >= self.settings.min_clearance_m)
 

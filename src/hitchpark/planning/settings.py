@@ -13,8 +13,9 @@ from ..model.state import wrap_angle
 
 __all__ = ["PATH_COLUMNS", "STATUSES", "Plan", "PlannerSettings", "arrived"]
 
-#: What :attr:`Plan.status` can be.
-STATUSES = ("found", "no_path", "timeout")
+#: What :attr:`Plan.status` can be: ``planner_timeout`` is the wall-clock safety net (``time_limit_s``), which
+#: no shipped scene or sweep reaches; the search's own budget is a count (``max_expansions``) and ends ``no_path``.
+STATUSES = ("found", "no_path", "planner_timeout")
 
 #: The columns of :attr:`Plan.path`, one row per sample of the path.
 PATH_COLUMNS = ("x_trailer", "y_trailer", "yaw_trailer", "hitch", "front_steer", "direction", "s", "t")
@@ -62,8 +63,14 @@ class PlannerSettings:
         lets the driveway's single reverse run fit its 7 m street (measured: not at 0.5 rad).
     hitch_margin : float
         The hitch stays within ``max_hitch - hitch_margin`` at every sample [rad].
+    max_expansions : int
+        The search's budget: node expansions of one plan, the opening's short search and the searches on
+        finer grids included. Past it the result is ``no_path`` (with where the search got to). A count,
+        not a time: the same start, scene and settings give the same plan on any machine and load.
     time_limit_s : float
-        Wall-clock budget [s]; past it the result is ``timeout``.
+        Wall-clock safety net for a live loop [s]; past it the result is ``planner_timeout``. Set far above
+        what ``max_expansions`` takes, so that it decides nothing in a sweep; a plan it cut short is not
+        reproducible.
     shot_length_m : float
         End-game (:mod:`~hitchpark.planning.endgame`): from every node expanded within this
         trailer-axle distance of the goal, behind it and heading within ``shot_max_heading`` of the goal
@@ -126,7 +133,8 @@ class PlannerSettings:
     virtual_limit: float = checked(0.5, Real(0.0, math.pi / 2, low_open=True, high_open=True, unit="rad"))
     obstacle_virtual_limit: float = checked(0.6, Real(0.0, math.pi / 2, low_open=True, high_open=True, unit="rad"))
     hitch_margin: float = checked(math.radians(5.0), Real(0.0, math.pi / 2, high_open=True, unit="rad"))
-    time_limit_s: float = checked(5.0, Real(0.0, 3600.0, low_open=True, unit="s"))
+    max_expansions: int = checked(4000, Integer(1, 10_000_000))
+    time_limit_s: float = checked(120.0, Real(0.0, 3600.0, low_open=True, unit="s"))
     shot_length_m: float = checked(20.0, Real(0.0, 100.0, unit="m"))
     shot_max_heading: float = checked(math.radians(90.0), Real(0.0, math.pi, unit="rad"))
     goal_tolerance_m: float = checked(0.3, Real(0.0, 10.0, low_open=True, unit="m"))
@@ -199,14 +207,16 @@ class Plan:
     """What :func:`~hitchpark.planning.plan` found.
 
     ``status``: ``"found"`` (``path`` ends within the goal tolerance and passed the exact swept clearance
-    check), ``"no_path"`` (nothing reaches the goal: the search space was exhausted, or the goal or start
-    is blocked), ``"timeout"`` (the time limit passed first). ``path`` maps :data:`PATH_COLUMNS` to
+    check), ``"no_path"`` (nothing reaches the goal: the search space was exhausted, its budget of expansions
+    spent, or the goal or start is blocked), ``"planner_timeout"`` (the wall-clock safety net passed first).
+    ``path`` maps :data:`PATH_COLUMNS` to
     equal-length arrays (empty unless found), world frame, SI units, radians: the trailer-axle pose, the
     hitch angle, the front steer at that sample, the direction of the motion into it (+1 forward, -1
     reverse; the first row takes the first motion's), ``s`` the trailer-axle arc length [m] and ``t`` the
     time at 1 m/s of the rear axle [s] (steering at standstill at a change of direction takes none).
     ``direction_switches``: changes of direction along the path; ``length_m``: trailer-axle path length;
-    ``planning_s``: wall-clock time; ``expanded``: nodes expanded; ``detail``: why, in words.
+    ``planning_s``: wall-clock time (the only field that depends on the machine); ``expanded``: nodes
+    expanded; ``detail``: why, in words.
     """
 
     status: str
