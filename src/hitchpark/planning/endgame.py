@@ -119,12 +119,20 @@ class EndGame:
         start = np.array([gx, gy, gyaw, state[3], steer])
         return self._pursue(start, references, s.virtual_limit, takes, within)
 
-    def tree_shots(self, state: np.ndarray, steer: float, tree: GoalTree) -> list[Landing]:
+    def tree_shots(
+        self, state: np.ndarray, steer: float, tree: GoalTree, tried: set[tuple[int, ...]] | None = None
+    ) -> list[Landing]:
         """Reverse runs from ``state`` along the paths of the nearest nodes of ``tree`` into the goal (the
-        trailer axle pursuing each, as a Dubins shot pursues its word, at the tree's virtual steer), shortest first."""
+        trailer axle pursuing each, as a Dubins shot pursues its word, at the tree's virtual steer), shortest
+        first. ``tried``: the sets of tree nodes shots were taken along before (from a neighbouring
+        configuration); one of them is not tried again, and a new one is added."""
         near = tree.near(state, self.pursuit.runs // len(TREE_LOOKAHEADS))
         if len(near) == 0:
             return []
+        if tried is not None:
+            if (key := tuple(int(i) for i in near)) in tried:
+                return []
+            tried.add(key)
         s = self.settings
         step = s.sample_step_m
         tail = np.arange(-step, -(DUBINS_LOOKAHEAD_M + s.goal_tolerance_m + step), -step)  # on along the goal line
@@ -217,14 +225,17 @@ class EndGame:
         return self.at_goal(states) | self._lost(states) | (deviation > DUBINS_MAX_DEVIATION_M)
 
     def _landings(self, runs: np.ndarray) -> list[Landing]:
-        """The runs (goal frame, (n, samples + 1, 5)) that arrive within the limits, in the world frame."""
+        """The runs (goal frame, (n, samples + 1, 5)) that arrive within the limits, in the world frame; runs that
+        are the same to the last sample (a reference repeated to fill the pursuit's runs) once."""
         arrived = self.at_goal(runs[:, 1:])
-        found = []
+        found: list[np.ndarray] = []
         for run, hits in zip(runs, arrived, strict=True):
             if not hits.any():
                 continue
             part = run[1 : int(np.argmax(hits)) + 2]
             if np.any(np.abs(part[:, 3]) > self.hitch_limit) or not np.all(np.isfinite(part)):
+                continue
+            if any(len(other) == len(part) and np.array_equal(other, part) for other in found):
                 continue
             found.append(part)
         found.sort(key=len)

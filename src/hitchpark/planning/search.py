@@ -17,7 +17,7 @@ from ..model.scene import Scene
 from ..model.state import Pose, State, check_goal, check_state, goal_frame_position, goal_frame_yaw, to_goal_frame
 from ..model.vehicle import VehicleTrailer, check_vehicle
 from .endgame import EndGame, Landing
-from .grid import Discs, HolonomicHeuristic, distance_grid
+from .grid import HolonomicHeuristic, Screen, distance_grid
 from .heuristic import TrailerTable, trailer_table
 from .motion import PrimitiveBatch
 from .nodes import Node
@@ -73,11 +73,11 @@ def plan(
         raise InputError(
             f"planner.hitch_margin must be < max_hitch ({vehicle.max_hitch:g} rad), got {settings.hitch_margin:g}"
         )
-    _prepare(vehicle, goal, scene, settings)
+    tree = _prepare(vehicle, goal, scene, settings)
     began = time.perf_counter()
     expanded = 0
     for refinement in range(REFINEMENTS + 1):
-        search = _Search(vehicle, start, goal, scene, settings, began)
+        search = _Search(vehicle, start, goal, scene, settings, began, tree)
         search.expanded = expanded
         result = search.run()
         expanded = result.expanded
@@ -93,8 +93,9 @@ def plan(
     return result  # pragma: no cover (the loop returns)
 
 
-def _prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: PlannerSettings) -> None:
-    """Build the batch rollouts and pursuits a search uses before its clock starts.
+def _prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: PlannerSettings) -> GoalTree | None:
+    """Build the batch rollouts and pursuits a search uses before its clock starts, and the goal tree among
+    obstacles (:mod:`.tree`, returned; the searches on finer grids use it as it is).
 
     They are compiled to C once per machine (cached on disk, :func:`~hitchpark.native.native`) and loaded
     once per process; that set-up is not planning, and must not eat a search's time limit: a first plan
@@ -107,13 +108,15 @@ def _prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Planne
         PrimitiveBatch(vehicle, settings.primitive_length_m, settings.samples, size)
     if settings.shot_length_m:
         EndGame(vehicle, goal, settings).pursuit.prepare()
+    tree = None
     if uses_tree(scene, settings):
-        goal_tree(vehicle, goal, scene, tree_settings(settings), scene_bounds(vehicle, goal, scene, settings))
+        tree = goal_tree(vehicle, goal, scene, tree_settings(settings), scene_bounds(vehicle, goal, scene, settings))
     if settings.refine_m:
         planes = 0 if scene.is_empty else REFINE_PLANES
         refine_solver(vehicle, vehicle.max_hitch - settings.hitch_margin, planes, settings.refine_solver)
         if planes:
             prepare_lines()  # the refinement's lines around the scene
+    return tree
 
 
 def uses_tree(scene: Scene, settings: PlannerSettings) -> bool:
@@ -160,7 +163,14 @@ def scene_bounds(
 
 class _Search:
     def __init__(
-        self, vehicle: VehicleTrailer, start: State, goal: Pose, scene: Scene, settings: PlannerSettings, began: float
+        self,
+        vehicle: VehicleTrailer,
+        start: State,
+        goal: Pose,
+        scene: Scene,
+        settings: PlannerSettings,
+        began: float,
+        tree: GoalTree | None = None,
     ):
         self.vehicle, self.goal, self.scene, self.began = vehicle, goal, scene, began
         self.start = start.as_array()
@@ -170,10 +180,9 @@ class _Search:
         self._set_limit(settings, settings.virtual_limit)
         opening_samples = round(OPENING_FORWARD_M / s.sample_step_m)
         self.opening_batch = PrimitiveBatch(vehicle, OPENING_FORWARD_M, opening_samples, s.steer_samples)
-        self.discs = Discs(vehicle)
         self.bounds = scene_bounds(vehicle, goal, scene, s, self.start)
         self.grid = distance_grid(scene, self.bounds, s.collision_cell_m)
-        self.need = self.discs.radius + s.min_clearance_m
+        self.screen = Screen(vehicle, scene, self.grid, s.min_clearance_m)
         self.holonomic: HolonomicHeuristic | None = None
         if not scene.is_empty:
             keep = vehicle.trailer_width / 2 + s.min_clearance_m
@@ -183,9 +192,8 @@ class _Search:
         self.table: TrailerTable | None = None
         if s.heuristic_radius_m > 0:
             self.table = trailer_table(s.heuristic_radius_m, 0.5, 72, 1.0, s.weight_forward, s.weight_reverse)
-        self.tree: GoalTree | None = None
-        if uses_tree(scene, s):
-            self.tree = goal_tree(vehicle, goal, scene, tree_settings(s), scene_bounds(vehicle, goal, scene, s))
+        self.tree = tree
+        self.tried: set[tuple[int, ...]] = set()  # the sets of tree nodes shots were taken along
         self.expanded = 0
         self.closest: Node | None = None  # the expanded node nearest the goal (for a plan that finds nothing)
         self.exhausted = False  # set when the open set ran empty: nothing more at this resolution
@@ -268,7 +276,7 @@ class _Search:
             x_ok = (states[:, 1:, 0] > self.bounds[0]) & (states[:, 1:, 0] < self.bounds[2])
             y_ok = (states[:, 1:, 1] > self.bounds[1]) & (states[:, 1:, 1] < self.bounds[3])
             return np.all(x_ok & y_ok, axis=1)
-        return self.discs.clear_of(self.grid, self.need, states)
+        return self.screen.fast(states)
 
     # --- search ------------------------------------------------------------------------------------------
 
@@ -376,7 +384,9 @@ class _Search:
             ok = np.all(np.abs(motions[:, 1:, 3]) <= self.hitch_limit, axis=1) & np.all(
                 np.isfinite(motions), axis=(1, 2)
             )
-            ok &= self._clear(motions)
+            fast = ok & self._clear(motions)
+            # Where the fast check refuses every motion (a start near a wall, say), the exact check decides.
+            ok = fast if fast.any() or self.scene.is_empty else self.screen.clear(motions[:, :, :4], ok)
             if not ok.any():
                 continue
             candidates = np.flatnonzero(ok)
@@ -461,7 +471,7 @@ class _Search:
         landings = self.endgame.line_shots(node.state, steer)
         along_tree: list[Landing] = []
         if self.tree is not None:
-            along_tree = self.endgame.tree_shots(node.state, steer, self.tree)
+            along_tree = self.endgame.tree_shots(node.state, steer, self.tree, self.tried)
         if dubins:
             takes, within = None, None
             if self.scene.is_empty:
@@ -477,8 +487,7 @@ class _Search:
         for (world, steers), limit in sorted(candidates, key=lambda candidate: len(candidate[0][0])):
             if self._too_long(node, world, limit):
                 continue
-            fast = self._fast_clear(node, world)
-            if not fast and (self.scene.is_empty or not self._exactly_clear(world)):
+            if not self._landing_clear(node, world):
                 continue
             nodes.append(Node(world[-1], float(steers[-1]), -1, 0.0, index, world, steers))
             if self._confirmed(nodes, len(nodes) - 1):
@@ -495,14 +504,13 @@ class _Search:
         """A landing's samples ``world`` from ``node`` keep clear by the fast check (:meth:`_clear`)."""
         return bool(self._clear(np.vstack([node.state[None, :], world])[None])[0])
 
-    def _exactly_clear(self, samples: np.ndarray) -> bool:
-        """Samples (k, 4) keep ``min_clearance_m`` by the exact swept clearance (a landing the fast check
-        refuses: its error, about 0.12 m, is more than a goal at a curb leaves, 0.025 m on curb_parallel).
-        Not asked where the grid already shows a body surely too near."""
-        if self.discs.surely_blocked(self.grid, self.settings.min_clearance_m, samples):
-            return False
-        bound, _ = swept_clearance(self.vehicle, self.scene, samples)
-        return bool(bound >= self.settings.min_clearance_m)
+    def _landing_clear(self, node: Node, world: np.ndarray) -> bool:
+        """A landing's samples ``world`` from ``node`` keep clear: by the fast check, or else exactly (among
+        obstacles: the fast check's error, about 0.12 m, is more than a goal at a curb leaves, 0.025 m on
+        curb_parallel; :class:`~.grid.Screen`)."""
+        if self.scene.is_empty:
+            return self._fast_clear(node, world)
+        return bool(self.screen.clear(np.vstack([node.state[None, :4], world[:, :4]])[None])[0])
 
     def _confirmed(self, nodes: list[Node], last: int) -> bool:
         """The exact swept clearance of the path ending at node ``last`` keeps ``min_clearance_m``."""

@@ -34,11 +34,10 @@ from scipy.spatial import cKDTree
 
 from ..control.compiled import cache_dir
 from ..control.pure_pursuit import forward_steer_limit
-from ..model.collision import swept_clearance
 from ..model.scene import Scene
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
-from .grid import Discs, distance_grid
+from .grid import Screen, distance_grid
 from .motion import PrimitiveBatch
 from .settings import PlannerSettings
 
@@ -112,9 +111,7 @@ class GoalTree:
     ) -> dict[str, np.ndarray]:
         """The tree's arrays (see the class): a uniform-cost search on the cells of ``settings`` from the goal."""
         s = settings
-        grid = distance_grid(scene, bounds, s.collision_cell_m)
-        discs = Discs(vehicle)
-        need = discs.radius + s.min_clearance_m
+        screen = Screen(vehicle, scene, distance_grid(scene, bounds, s.collision_cell_m), s.min_clearance_m)
         hitch_limit = vehicle.max_hitch - s.hitch_margin
         cap = forward_steer_limit(vehicle)
         commands = np.linspace(-cap, cap, s.steer_samples)
@@ -145,15 +142,7 @@ class GoalTree:
                 steer0[:m] = commands
             motions = batch.run_from(starts, steer0, np.tile(commands, len(picked)), np.ones(len(starts)))
             ok = np.all(np.abs(motions[:, 1:, 3]) <= hitch_limit, axis=1) & np.all(np.isfinite(motions), axis=(1, 2))
-            fast = discs.clear_of(grid, need, motions[:, :, :4])
-            for row in np.flatnonzero(ok & ~fast):
-                # The fast check's error (about 0.12 m) is more than a goal at a curb leaves: the exact swept
-                # clearance decides where the grid does not already show a body surely too near.
-                motion = motions[row, :, :4]
-                if discs.surely_blocked(grid, s.min_clearance_m, motion[1:]):
-                    ok[row] = False
-                else:
-                    ok[row] = swept_clearance(vehicle, scene, motion)[0] >= s.min_clearance_m
+            ok = screen.clear(motions[:, :, :4], ok)
             steps = np.hypot(np.diff(motions[:, :, 0], axis=1), np.diff(motions[:, :, 1], axis=1)).sum(axis=1)
             change = np.abs(motions[:, -1, 4] - motions[:, 0, 4])
             for row in np.flatnonzero(ok):
