@@ -17,7 +17,14 @@ from ..checks import InputError, check_choice
 from ..io import StagedFolder, write_json
 from ..maneuver.process import park
 from ..maneuver.result import ManeuverResult
-from ..maneuver.scenario import BUILTIN_ORDER, OBSTACLE_SUITE, Scenario, builtin_scenario, builtin_scenarios
+from ..maneuver.scenario import (
+    BUILTIN_ORDER,
+    OBSTACLE_SUITE,
+    PLACES_SUITE,
+    Scenario,
+    builtin_scenario,
+    builtin_scenarios,
+)
 from ..model.plant import PlantSettings
 from .records import trailer_path_length
 from .workers import WorkerPool
@@ -57,8 +64,8 @@ PAPER_TABLE5 = {
 }
 
 
-#: The suites ``reproduce --suite`` runs, by name: the paper's four and the scenes of obstacles.
-SUITES = {"paper": BUILTIN_ORDER, "obstacles": OBSTACLE_SUITE}
+#: The suites ``reproduce --suite`` runs, by name: the paper's four, the scenes of obstacles, and the places.
+SUITES = {"paper": BUILTIN_ORDER, "obstacles": OBSTACLE_SUITE, "places": PLACES_SUITE}
 
 
 def suite_scenarios(name: str, what: str = "suite") -> list[Scenario]:

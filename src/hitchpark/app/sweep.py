@@ -4,8 +4,10 @@ A sweep is a pure function of its :class:`SweepConfig`: the ``n`` starts are dra
 from ``numpy.random.default_rng(seed)``, uniformly over a :class:`Region` of the world frame
 (trailer-axle position and heading, hitch angle; by default the goal is at the origin, heading 0,
 so it is the parking frame), so case ``i`` is the same whatever runs it. Over a scene of obstacles
-(a scenario's, :func:`config_from_scenario`), a start that does not keep ``success.min_clearance_m``
-clear of it is drawn again, and counted as skipped (:func:`draw_clear_starts`). Each case parks once;
+(a scenario's, :func:`config_from_scenario`), a start that does not keep
+:attr:`~hitchpark.maneuver.settings.ManeuverSettings.start_clearance_m` (``success.min_clearance_m`` and the
+guard's margin: nearer, the guard does not let the car move) clear of it is drawn again, and counted as
+skipped (:func:`draw_clear_starts`). Each case parks once;
 its :class:`~.records.CaseRecord` is appended to a JSONL file as soon as it is known, and a sweep run
 again on the same file runs only the cases it lacks (:func:`run_sweep`).
 """
@@ -194,7 +196,8 @@ def draw_clear_starts(
         if drawn >= limit:
             raise InputError(
                 f"only {len(starts)} of {drawn} starts drawn from the region {region} keep clear of the scene "
-                f"(success.min_clearance_m), fewer than --n {n}: move or widen the start region"
+                f"(success.min_clearance_m and process.guard_margin_m), fewer than --n {n}: move or widen the start "
+                "region"
             )
         batch = min(limit - drawn, max(64, 2 * (n - len(starts))))
         for row in np.clip(lo + rng.random((batch, 4)) * (hi - lo), lo, hi):
@@ -229,7 +232,7 @@ class SweepConfig:
 
     ``plant`` is passed through to :func:`~hitchpark.maneuver.park` as ``plant=`` when it is not None;
     ``goal`` and ``scene`` as they are (default: the origin heading 0, open space). Over a scene, starts
-    that do not keep ``settings.success.min_clearance_m`` clear of it are drawn again (:meth:`draw`).
+    that do not keep ``settings.start_clearance_m`` clear of it are drawn again (:meth:`draw`).
     ``scenario`` names the scenario the sweep came from ("" if none), for its summary.
     """
 
@@ -259,7 +262,7 @@ class SweepConfig:
         """The starts of the cases, and how many draws were skipped as they collide with the scene."""
         keep = None
         if not self.scene.is_empty:
-            keep = _ClearOf(self.plant_vehicle, self.scene, self.settings.success.min_clearance_m)
+            keep = _ClearOf(self.plant_vehicle, self.scene, self.settings.start_clearance_m)
         return draw_clear_starts(self.seed, self.n, self.region, keep)
 
     def starts(self) -> list[Start]:

@@ -77,15 +77,18 @@ def build_parser() -> argparse.ArgumentParser:
         description="Park from the four shipped scenarios (parallel, parallel with hitch angle, perpendicular, "
         "random) with the 3-stage process, print Table 5, and write DIR/summary.json and, per scenario, "
         "DIR/NAME/maneuver.json with figures (Figs. 8-15) and an animation. With --suite obstacles, park in the "
-        "five built-in scenes of obstacles instead (driveway, campsite, curb_parallel, bay, loading_dock) and "
-        "print a table of path length, direction switches, least clearance, planning and maneuver time. "
+        "five built-in scenes of obstacles instead (driveway, campsite, curb_parallel, bay, loading_dock), with "
+        "--suite places in those and eight more places of real dimensions (driveway_fence, garage_end, "
+        "campground_angled, trailer_row, dock_alley, boat_ramp, curb_gap, hammerhead), and print a table of "
+        "path length, direction switches, least clearance, planning and maneuver time. "
         "Exit status 1 if any fails to park.",
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument(
         "--suite",
         metavar="NAME",
-        help="'paper' (the default: the paper's four scenarios) or 'obstacles' (the five scenes of obstacles)",
+        help="'paper' (the default: the paper's four scenarios), 'obstacles' (the five scenes of obstacles) or "
+        "'places' (those and eight more places trailers are backed into)",
     )
     _add_plant_option(p, "instead of the paper's ideal plant")
     p.add_argument("--no-plots", action="store_true", help="write JSON only (no figures, no animation)")

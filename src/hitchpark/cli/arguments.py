@@ -109,15 +109,15 @@ def scenario_from_arg(path: Path) -> Scenario:
 
     A name is a bare word that is not an existing file; anything else is read as a file.
     """
-    from ..maneuver.scenario import BUILTIN_ORDER, OBSTACLE_SUITE, builtin_scenario, load_scenario
+    from ..maneuver.scenario import BUILTIN_ORDER, PLACES_SUITE, builtin_scenario, load_scenario
 
     text = str(path)
     if path.exists() or path.suffix or len(path.parts) != 1:
         return load_scenario(path)
-    if text not in (*BUILTIN_ORDER, *OBSTACLE_SUITE):
+    if text not in (*BUILTIN_ORDER, *PLACES_SUITE):
         raise UsageError(
             f"--scenario {text}: no such file, nor a built-in scenario (built in: "
-            f"{', '.join((*BUILTIN_ORDER, *OBSTACLE_SUITE))})"
+            f"{', '.join((*BUILTIN_ORDER, *PLACES_SUITE))})"
         )
     return builtin_scenario(text)
 

@@ -86,7 +86,11 @@ class PlannedProcess:
     ):
         self.vehicle, self.settings, self.scene, self.nmpc = vehicle, settings, scene, nmpc
         clearance = settings.success.min_clearance_m + settings.process.plan_margin_m
-        self.planner = replace(settings.planner, min_clearance_m=max(settings.planner.min_clearance_m, clearance))
+        clearance = max(settings.planner.min_clearance_m, clearance)
+        # A start nearer the scene than that, but as far as the guard lets the car move (the sweep's starts keep
+        # settings.start_clearance_m), is planned from keeping its own clearance.
+        slack = max(0.0, clearance - settings.start_clearance_m)
+        self.planner = replace(settings.planner, min_clearance_m=clearance, start_slack_m=slack)
         self.tracking = settings.tracking
         self.guard = None
         if not scene.is_empty:

@@ -63,6 +63,7 @@ from .settings import SETTINGS_TABLES, ManeuverSettings
 __all__ = [
     "BUILTIN_ORDER",
     "OBSTACLE_SUITE",
+    "PLACES_SUITE",
     "Scenario",
     "StartRegion",
     "builtin_scenario",
@@ -76,6 +77,20 @@ BUILTIN_ORDER = ("parallel", "parallel_hitch", "perpendicular", "random")
 
 #: The built-in scenes of obstacles (``reproduce --suite obstacles``), in the issue's order.
 OBSTACLE_SUITE = ("driveway", "campsite", "curb_parallel", "bay", "loading_dock")
+
+#: The places trailers are backed into (``reproduce --suite places``): the scenes of obstacles and eight more, of
+#: real dimensions (their sources in their files' comments), none of which the planner was tuned on.
+PLACES_SUITE = (
+    *OBSTACLE_SUITE,
+    "driveway_fence",
+    "garage_end",
+    "campground_angled",
+    "trailer_row",
+    "dock_alley",
+    "boat_ramp",
+    "curb_gap",
+    "hammerhead",
+)
 
 #: A scenario's name names its output folder: letters, digits, '_', '.', '-', not starting with a dot.
 NAME_PATTERN = r"[A-Za-z0-9][A-Za-z0-9_.-]*"

@@ -115,6 +115,13 @@ class ManeuverSettings:
     tracking: TrackingSettings = field(default_factory=TrackingSettings)
     planner: PlannerSettings = field(default_factory=PlannerSettings)
 
+    @property
+    def start_clearance_m(self) -> float:
+        """How far [m] a start among obstacles must be from them for the car to move at all: the guard stops it
+        nearer than ``success.min_clearance_m + process.guard_margin_m`` (the sweep's starts keep this; a
+        planned path from a start that keeps less than the planner's clearance keeps what the start keeps)."""
+        return self.success.min_clearance_m + self.process.guard_margin_m
+
     def to_dict(self) -> dict[str, Any]:
         return {name: asdict(getattr(self, name)) for name in SETTINGS_TABLES}
 

@@ -51,6 +51,10 @@ DUBINS_LOOKAHEAD_M = 2.0
 #: cuts the tree path's bends, a shorter one swings the hitch further).
 TREE_LOOKAHEADS = (2.0, 3.0, 4.5)
 
+#: A tree shot's reference is its tree node's path moved onto the run's start, the offset taken out over this
+#: much of it [m] (at most half of it).
+TREE_BLEND_M = 6.0
+
 #: A Dubins run farther than this from its reference is given up [m].
 DUBINS_MAX_DEVIATION_M = 2.0
 
@@ -137,13 +141,19 @@ class EndGame:
         step = s.sample_step_m
         tail = np.arange(-step, -(DUBINS_LOOKAHEAD_M + s.goal_tolerance_m + step), -step)  # on along the goal line
         references = []
+        gx, gy, gyaw = self.in_goal_frame(state)
         for node in near:
             path = tree.path(int(node))
-            gx, gy, _ = to_goal_frame(self.goal, path[:, 0], path[:, 1], path[:, 2])
-            reference = np.vstack([np.column_stack([gx, gy]), np.column_stack([tail, np.zeros(len(tail))])])
+            px, py, _ = to_goal_frame(self.goal, path[:, 0], path[:, 1], path[:, 2])
+            # The node's path moved to start where the run starts, the offset taken out over its first
+            # TREE_BLEND_M (a smoothstep): the pursuit starts on its reference instead of catching it up.
+            along = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(px), np.diff(py)))])
+            blend = np.clip(1.0 - along / min(TREE_BLEND_M, 0.5 * along[-1] + 1e-9), 0.0, 1.0)
+            weight = blend * blend * (3.0 - 2.0 * blend)
+            px, py = px + weight * (gx - px[0]), py + weight * (gy - py[0])
+            reference = np.vstack([np.column_stack([px, py]), np.column_stack([tail, np.zeros(len(tail))])])
             references += [reference] * len(TREE_LOOKAHEADS)
         lookaheads = np.resize(TREE_LOOKAHEADS, len(references))
-        gx, gy, gyaw = self.in_goal_frame(state)
         start = np.array([gx, gy, gyaw, state[3], steer])
         return self._pursue(start, references, s.obstacle_virtual_limit, lookaheads=lookaheads)
 

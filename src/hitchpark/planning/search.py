@@ -12,7 +12,7 @@ import numpy as np
 from ..checks import InputError, check_instance
 from ..control.clearance import prepare_lines
 from ..control.pure_pursuit import forward_steer_limit
-from ..model.collision import closest, swept_clearance
+from ..model.collision import MAX_STEP_M, closest, swept_clearance
 from ..model.scene import Scene
 from ..model.state import Pose, State, check_goal, check_state, goal_frame_position, goal_frame_yaw, to_goal_frame
 from ..model.vehicle import VehicleTrailer, check_vehicle
@@ -36,6 +36,11 @@ DUBINS_EVERY = 10
 
 #: How many times a search that exhausts its grid is repeated on a grid twice as fine.
 REFINEMENTS = 2
+
+#: A start within ``start_slack_m`` of ``min_clearance_m`` is planned from keeping its own clearance less this [m]
+#: (the exact swept clearance's bound is low by up to half its sub-step, and 5 mm), at least ``min_clearance_m -
+#: start_slack_m``.
+START_MARGIN_M = MAX_STEP_M / 2 + 0.005
 
 #: Cap on the nodes of one search (memory bound; ``max_expansions`` ends a search first).
 MAX_NODES = 2_000_000
@@ -261,8 +266,11 @@ class _Search:
         h = h + s.heuristic_hitch_m * np.abs(states[:, 3])
         if self.tree is not None:
             # By way of the goal tree where a node of it is near (a single reverse run in is known from there);
-            # elsewhere a change of direction more, at least, is likely.
-            h = np.where(np.isfinite(by_tree := self.tree.estimate(states)), by_tree, h + s.weight_switch)
+            # elsewhere a change of direction more, and the way to the nearest node (in the tree's metric: the
+            # search is drawn to the tree's poses, headings and hitch angles, not only towards the goal).
+            by_tree = self.tree.estimate(states)
+            far = np.maximum(h, self.tree.estimate(states, math.inf)) + s.weight_switch
+            h = np.where(np.isfinite(by_tree), by_tree, far)
         return np.asarray(s.heuristic_weight * h, dtype=float)
 
     def _at_goal(self, states: np.ndarray) -> np.ndarray:
@@ -303,8 +311,11 @@ class _Search:
         scene_empty = self.scene.is_empty
         if not scene_empty:
             exact, _ = swept_clearance(self.vehicle, self.scene, self.start[None, :])
-            if exact < s.min_clearance_m:
+            if exact < s.min_clearance_m - s.start_slack_m:
                 return self._done("no_path", f"the start keeps only {exact:.3g} m from the scene")
+            if exact < s.min_clearance_m:  # within the slack: the path keeps what the start keeps
+                keep = max(exact - START_MARGIN_M, s.min_clearance_m - s.start_slack_m)
+                self.screen = Screen(self.vehicle, self.scene, self.grid, keep)
             # Exactly (the fast check is conservative by a few decimetres, and a goal in a tight space is the point).
             at_goal, _ = swept_clearance(
                 self.vehicle, self.scene, np.array([[self.goal.x, self.goal.y, self.goal.yaw, 0.0]])
@@ -513,13 +524,14 @@ class _Search:
         return bool(self.screen.clear(np.vstack([node.state[None, :4], world[:, :4]])[None])[0])
 
     def _confirmed(self, nodes: list[Node], last: int) -> bool:
-        """The exact swept clearance of the path ending at node ``last`` keeps ``min_clearance_m``."""
+        """The exact swept clearance of the path ending at node ``last`` keeps ``min_clearance_m`` (or what a start
+        within ``start_slack_m`` of it keeps)."""
         if self.scene.is_empty:
             return True
         states = self._path(nodes, last)
         configs = np.column_stack([states[k] for k in ("x_trailer", "y_trailer", "yaw_trailer", "hitch")])
         bound, _ = swept_clearance(self.vehicle, self.scene, configs)
-        return bound >= self.settings.min_clearance_m
+        return bound >= self.screen.clearance
 
     def _path(self, nodes: list[Node], last: int) -> dict[str, np.ndarray]:
         chain = []

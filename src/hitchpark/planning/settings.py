@@ -97,6 +97,10 @@ class PlannerSettings:
         straight rest is left to the tracking controller. Both 0: at the goal itself.
     min_clearance_m : float
         Least distance [m] of every body from every obstacle and from the area's boundary.
+    start_slack_m : float
+        A start up to this much [m] nearer the scene than ``min_clearance_m`` is planned from: the search keeps
+        the start's own clearance (less 3 cm, at least ``min_clearance_m - start_slack_m``) instead (the goal
+        tree and the refined end keep ``min_clearance_m``); 0: such a start is ``no_path``.
     collision_cell_m : float
         Cell of the obstacle distance grid [m] (the fast check's error is about 1.5 cells, counted against
         it: a finer cell lets the search pass closer).
@@ -145,6 +149,7 @@ class PlannerSettings:
     goal_line_from_m: float = checked(0.0, Real(0.0, 100.0, unit="m"))
     goal_line_m: float = checked(0.0, Real(0.0, 100.0, unit="m"))
     min_clearance_m: float = checked(0.2, Real(0.0, 10.0, unit="m"))
+    start_slack_m: float = checked(0.0, Real(0.0, 10.0, unit="m"))
     collision_cell_m: float = checked(0.05, Real(0.02, 1.0, unit="m"))
     search_margin_m: float = checked(10.0, Real(0.0, 1000.0, unit="m"))
     weight_forward: float = checked(1.0, Real(0.0, 1000.0, low_open=True))

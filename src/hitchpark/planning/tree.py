@@ -188,11 +188,12 @@ class GoalTree:
         keep = (distance <= NEAR_M) & (index > 0) & (index < len(self.states))
         return index[keep][:count]
 
-    def estimate(self, states: np.ndarray) -> np.ndarray:
-        """Cost-to-go [m] of configurations (n, >=4) by way of the tree: the least, over the tree nodes within
-        :data:`NEAR_M`, of a node's cost and its distance; ``inf`` where none is near."""
+    def estimate(self, states: np.ndarray, within: float = NEAR_M) -> np.ndarray:
+        """Cost-to-go [m] of configurations (n, >=4) by way of the tree: the least, over the 4 tree nodes nearest
+        within ``within`` (:data:`NEAR_M`; ``inf``: all), of a node's cost and its distance; ``inf`` where none is
+        near."""
         k = min(4, len(self.states))
-        distance, index = self._index.query(self._features(np.asarray(states, float)), k=k, distance_upper_bound=NEAR_M)
+        distance, index = self._index.query(self._features(np.asarray(states, float)), k=k, distance_upper_bound=within)
         distance, index = distance.reshape(len(states), k), index.reshape(len(states), k)
         found = index < len(self.states)
         cost = np.where(found, self.cost[np.minimum(index, len(self.states) - 1)] + distance, np.inf)

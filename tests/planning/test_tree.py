@@ -1,0 +1,155 @@
+"""The goal tree (hitchpark.planning.tree) and the planner's count-bounded, machine-independent answers."""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import time
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from hitchpark.maneuver.scenario import PLACES_SUITE, builtin_scenario
+from hitchpark.model import State
+from hitchpark.model.collision import clearance, swept_clearance
+from hitchpark.model.kinematics import full_rhs
+from hitchpark.model.state import to_goal_frame
+from hitchpark.planning import plan, tree
+from hitchpark.planning.search import scene_bounds, tree_settings
+
+CLEARANCE = 0.3  # the planned process's: success.min_clearance_m + process.plan_margin_m
+
+
+def _settings(scenario, **changes):
+    return replace(scenario.settings.planner, **{"min_clearance_m": CLEARANCE, **changes})
+
+
+@pytest.fixture(scope="module")
+def driveway():
+    sc = builtin_scenario("driveway")
+    settings = tree_settings(_settings(sc))
+    bounds = scene_bounds(sc.vehicle, sc.goal, sc.scene, settings)
+    grown = tree.goal_tree(sc.vehicle, sc.goal, sc.scene, settings, bounds)
+    return sc, grown
+
+
+def test_every_tree_path_is_a_reverse_run_into_the_goal_that_keeps_clear(driveway):
+    """Read backwards, each node's path is a motion of the full model in reverse (Eqs. 19-24 at v = -1, the
+    front steer of each sample), ends at the goal, keeps the hitch limit and the exact clearance."""
+    sc, grown = driveway
+    v = sc.vehicle
+    assert len(grown.states) > 200
+    rng = np.random.default_rng(3)
+    for node in rng.choice(np.arange(1, len(grown.states)), size=12, replace=False):
+        path = grown.path(int(node))
+        np.testing.assert_allclose(path[-1, :4], [sc.goal.x, sc.goal.y, sc.goal.yaw, 0.0], atol=1e-12)
+        np.testing.assert_allclose(path[0], grown.states[node])
+        assert np.all(np.abs(path[:, 3]) <= v.max_hitch - sc.settings.planner.hitch_margin + 1e-12)
+        bound, _ = swept_clearance(v, sc.scene, path[:, :4])
+        assert bound >= CLEARANCE - 1e-9
+        # Reverse motion: the change between samples is the model's slope at v = -1 (the rear axle moves
+        # sample_step_m a sample; the midpoint's slope, second order).
+        mid = 0.5 * (path[1:] + path[:-1])
+        slope = np.stack([full_rhs(v, m[:4], np.array([-1.0, m[4]])) for m in mid])
+        step = sc.settings.planner.sample_step_m
+        moves = np.diff(path[:, :4], axis=0)
+        # (The last step, into the goal, is the root's first motion, steered at standstill: its own steer.)
+        np.testing.assert_allclose(moves[:-1], step * slope[:-1], atol=2e-3)
+
+
+def test_the_tree_is_cached_on_disk_and_read_back_the_same(driveway, tmp_path, monkeypatch):
+    sc, grown = driveway
+    monkeypatch.setattr(tree, "cache_dir", lambda: tmp_path)
+    settings = tree_settings(_settings(sc))
+    bounds = scene_bounds(sc.vehicle, sc.goal, sc.scene, settings)
+    built = tree.goal_tree.__wrapped__(sc.vehicle, sc.goal, sc.scene, settings, bounds)
+    assert len(list(tmp_path.glob("planner-tree-*.npz"))) == 1
+    read = tree.goal_tree.__wrapped__(sc.vehicle, sc.goal, sc.scene, settings, bounds)
+    for name, values in built.arrays.items():
+        np.testing.assert_array_equal(read.arrays[name], values, err_msg=name)
+        np.testing.assert_array_equal(grown.arrays[name], values, err_msg=name)
+    # Another clearance is another tree.
+    other = tree_settings(_settings(sc, min_clearance_m=0.4))
+    tree.goal_tree.__wrapped__(sc.vehicle, sc.goal, sc.scene, other, bounds)
+    assert len(list(tmp_path.glob("planner-tree-*.npz"))) == 2
+
+
+def test_tree_estimates_are_at_most_its_costs_at_its_nodes_and_none_far_from_it(driveway):
+    _, grown = driveway
+    nodes = np.arange(1, len(grown.states), 37)
+    at_nodes = grown.estimate(grown.states[nodes, :4])
+    assert np.all(at_nodes <= grown.cost[nodes] + 1e-12) and np.all(at_nodes >= 0.0)
+    far = grown.states[nodes[:3], :4] + np.array([100.0, 0.0, 0.0, 0.0])
+    assert np.all(np.isinf(grown.estimate(far)))
+    assert np.all(np.isfinite(grown.estimate(far, math.inf)))
+
+
+def _hog(stop) -> None:
+    while not stop.is_set():
+        sum(i * i for i in range(10_000))
+
+
+def test_the_same_plan_on_a_loaded_machine():
+    """The budget is a count: the plan from a start that needs the search (a pull forward at the loading
+    dock's mouth) is the same to the last bit with two busy processes beside it."""
+    sc = builtin_scenario("loading_dock")
+    start = State(25.75, 7.51, math.radians(91.6), math.radians(-2.76))
+    settings = _settings(sc)
+    quiet = plan(sc.vehicle, start, sc.goal, sc.scene, settings)
+    stop = multiprocessing.Event()
+    hogs = [multiprocessing.Process(target=_hog, args=(stop,)) for _ in range(2)]
+    for h in hogs:
+        h.start()
+    try:
+        time.sleep(0.2)
+        loaded = plan(sc.vehicle, start, sc.goal, sc.scene, settings)
+    finally:
+        stop.set()
+        for h in hogs:
+            h.join()
+    assert quiet.status == loaded.status == "found"
+    assert (quiet.expanded, quiet.direction_switches, quiet.detail) == (loaded.expanded, loaded.direction_switches,
+                                                                         loaded.detail)
+    for column, values in quiet.path.items():
+        np.testing.assert_array_equal(loaded.path[column], values, err_msg=column)
+
+
+def test_a_start_within_the_slack_keeps_its_own_clearance():
+    """A start nearer the scene than min_clearance_m, within start_slack_m: the path keeps what it keeps."""
+    sc = builtin_scenario("driveway")
+    start = State(11.74, 6.0, math.radians(90.0), 0.0)  # the car's left side 0.265 m from the kerb line
+    near = clearance(sc.vehicle, sc.scene, start.x, start.y, start.yaw, start.hitch)
+    assert 0.23 < near < CLEARANCE
+    refused = plan(sc.vehicle, start, sc.goal, sc.scene, _settings(sc))
+    assert refused.status == "no_path" and "the start keeps only" in refused.detail
+    found = plan(sc.vehicle, start, sc.goal, sc.scene, _settings(sc, start_slack_m=0.07))
+    assert found.status == "found"
+    bound, _ = swept_clearance(sc.vehicle, sc.scene, found.states)
+    assert max(near - 0.03, CLEARANCE - 0.07) - 1e-9 <= bound
+    assert plan(sc.vehicle, start, sc.goal, sc.scene, _settings(sc, start_slack_m=0.01)).status == "no_path"
+
+
+@pytest.mark.parametrize("name", PLACES_SUITE)
+def test_each_place_cites_public_sources_and_its_goal_keeps_clear(name):
+    from importlib import resources
+
+    text = (resources.files("hitchpark.maneuver") / "scenarios" / f"{name}.toml").read_text(encoding="utf-8")
+    assert "/work" not in text and "FIELD.md" not in text
+    sources = ("AASHTO", "Dimensions of Parking", "96/53/EC", "658.15", "Forest Service", "Boating Access")
+    assert any(source in text for source in sources)
+    sc = builtin_scenario(name)
+    assert sc.start_region is not None and not sc.scene.is_empty
+    at_goal = clearance(sc.vehicle, sc.scene, sc.goal.x, sc.goal.y, sc.goal.yaw, 0.0)
+    assert at_goal >= sc.settings.success.min_clearance_m + sc.settings.process.plan_margin_m
+    gx, gy, _ = to_goal_frame(sc.goal, sc.start.x, sc.start.y, sc.start.yaw)
+    assert math.hypot(gx, gy) > 5.0  # the start is not at the goal
+
+
+@pytest.mark.parametrize("name", ["hammerhead", "boat_ramp"])
+def test_new_places_plan_from_their_start(name):
+    sc = builtin_scenario(name)
+    found = plan(sc.vehicle, sc.start, sc.goal, sc.scene, _settings(sc))
+    assert found.status == "found", found.detail
+    bound, _ = swept_clearance(sc.vehicle, sc.scene, found.states)
+    assert bound >= CLEARANCE - 0.0051
