@@ -11,7 +11,7 @@ from hitchpark.app import report
 from hitchpark.app.report import SUITES, suite_scenarios, suite_table, summary_entry
 from hitchpark.control import NMPCSettings
 from hitchpark.maneuver import ManeuverSettings, park
-from hitchpark.maneuver.scenario import BUILTIN_ORDER, OBSTACLE_SUITE
+from hitchpark.maneuver.scenario import BUILTIN_ORDER, OBSTACLE_SUITE, PLACES_SUITE
 from hitchpark.model import IDEAL, State, VehicleTrailer
 from hitchpark.model.scene import Obstacle, Scene
 from test_cli import run
@@ -20,12 +20,14 @@ PAPER = ManeuverSettings(nmpc=NMPCSettings(kind="paper", solver="sqp"))
 
 
 def test_suites_name_the_builtin_scenarios():
-    assert SUITES == {"paper": BUILTIN_ORDER, "obstacles": OBSTACLE_SUITE}
+    assert SUITES == {"paper": BUILTIN_ORDER, "obstacles": OBSTACLE_SUITE, "places": PLACES_SUITE}
+    assert PLACES_SUITE[:5] == OBSTACLE_SUITE and len(set(PLACES_SUITE)) == 13
+    assert all(sc.start_region is not None and not sc.scene.is_empty for sc in suite_scenarios("places"))
     assert OBSTACLE_SUITE == ("driveway", "campsite", "curb_parallel", "bay", "loading_dock")
     assert [sc.name for sc in suite_scenarios("obstacles")] == list(OBSTACLE_SUITE)
     assert all(sc.start_region is not None and not sc.scene.is_empty for sc in suite_scenarios("obstacles"))
     assert [sc.name for sc in suite_scenarios("paper")] == list(BUILTIN_ORDER)
-    with pytest.raises(InputError, match="--suite must be one of 'paper', 'obstacles', got 'all'"):
+    with pytest.raises(InputError, match="--suite must be one of 'paper', 'obstacles', 'places', got 'all'"):
         suite_scenarios("all", "--suite")
 
 
