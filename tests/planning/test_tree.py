@@ -15,7 +15,7 @@ from hitchpark.model import State
 from hitchpark.model.collision import clearance, swept_clearance
 from hitchpark.model.kinematics import full_rhs
 from hitchpark.model.state import to_goal_frame
-from hitchpark.planning import plan, tree
+from hitchpark.planning import cache, plan, tree
 from hitchpark.planning.search import scene_bounds, tree_settings
 
 CLEARANCE = 0.3  # the planned process's: success.min_clearance_m + process.plan_margin_m
@@ -60,7 +60,7 @@ def test_every_tree_path_is_a_reverse_run_into_the_goal_that_keeps_clear(drivewa
 
 def test_the_tree_is_cached_on_disk_and_read_back_the_same(driveway, tmp_path, monkeypatch):
     sc, grown = driveway
-    monkeypatch.setattr(tree, "cache_dir", lambda: tmp_path)
+    monkeypatch.setattr(cache, "cache_dir", lambda: tmp_path)
     settings = tree_settings(_settings(sc))
     bounds = scene_bounds(sc.vehicle, sc.goal, sc.scene, settings)
     built = tree.goal_tree.__wrapped__(sc.vehicle, sc.goal, sc.scene, settings, bounds)

@@ -15,13 +15,12 @@ from __future__ import annotations
 import functools
 import hashlib
 import math
-import os
 
 import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
 
-from ..control.compiled import cache_dir
+from .cache import cached_arrays
 
 __all__ = ["TrailerTable", "trailer_table"]
 
@@ -106,19 +105,5 @@ def trailer_table(
     """
     args = (radius, cell, yaw_bins, EXTENT, step, weight_forward, weight_reverse)
     key = hashlib.sha256(repr(("trailer-table-v1", *args)).encode()).hexdigest()[:20]
-    path = cache_dir() / f"planner-table-{key}.npy"
-    try:
-        table = TrailerTable(*args, cost=np.load(path))
-        if table.cost.shape == (int(np.prod(table.shape)),):
-            return table
-    except (OSError, ValueError):
-        pass
-    table = TrailerTable(*args)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        partial = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npy")
-        np.save(partial, table.cost)
-        os.replace(partial, path)
-    except OSError:
-        pass
-    return table
+    arrays = cached_arrays(f"planner-table-{key}", ("cost",), lambda: {"cost": TrailerTable(*args).cost})
+    return TrailerTable(*args, cost=arrays["cost"])  # (one of another shape is built again)

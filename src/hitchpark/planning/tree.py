@@ -26,17 +26,17 @@ import functools
 import hashlib
 import heapq
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..control.compiled import cache_dir
 from ..control.pure_pursuit import forward_steer_limit
 from ..model.scene import Scene
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
+from ..native import jit_available
+from .cache import cached_arrays
 from .grid import Screen, distance_grid
 from .motion import PrimitiveBatch
 from .settings import PlannerSettings
@@ -217,7 +217,8 @@ def _cache_key(
     obstacles = [(o.name, np.asarray(o.polygon).round(9).tolist()) for o in scene.obstacles]
     area = None if scene.area is None else np.asarray(scene.area.boundary).round(9).tolist()
     code = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()  # this module's text: a change builds anew
-    text = repr(("goal-tree", code, vehicle, goal, obstacles, area, settings, bounds))
+    # Compiled primitives and CasADi's virtual machine agree to rounding, not to the bit: their trees apart.
+    text = repr(("goal-tree", code, jit_available(), vehicle, goal, obstacles, area, settings, bounds))
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
@@ -229,21 +230,10 @@ def goal_tree(
     settings: PlannerSettings,
     bounds: tuple[float, float, float, float],
 ) -> GoalTree:
-    """The :class:`GoalTree` of these, built once: kept in the process and on disk (a cache that cannot be read
-    or written is built again, never an error)."""
-    path = cache_dir() / f"planner-tree-{_cache_key(vehicle, goal, scene, settings, bounds)}.npz"
-    try:
-        with np.load(path) as data:
-            arrays = {k: data[k] for k in ("states", "parent", "cost", "samples")}
-        return GoalTree(vehicle, goal, scene, settings, bounds, arrays)
-    except (OSError, ValueError, KeyError):
-        pass
-    tree = GoalTree(vehicle, goal, scene, settings, bounds)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        partial = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npz")
-        np.savez(partial, states=tree.states, parent=tree.parent, cost=tree.cost, samples=tree.samples)
-        os.replace(partial, path)
-    except OSError:
-        pass
-    return tree
+    """The :class:`GoalTree` of these, built once: kept in the process and on disk (:mod:`.cache`)."""
+    arrays = cached_arrays(
+        f"planner-tree-{_cache_key(vehicle, goal, scene, settings, bounds)}",
+        ("states", "parent", "cost", "samples"),
+        lambda: GoalTree(vehicle, goal, scene, settings, bounds).arrays,
+    )
+    return GoalTree(vehicle, goal, scene, settings, bounds, arrays)
