@@ -16,7 +16,7 @@ from hitchpark.model.collision import clearance, swept_clearance
 from hitchpark.model.kinematics import full_rhs
 from hitchpark.model.state import to_goal_frame
 from hitchpark.planning import cache, plan, tree
-from hitchpark.planning.search import scene_bounds, tree_settings
+from hitchpark.planning.prepare import scene_bounds, tree_settings
 
 CLEARANCE = 0.3  # the planned process's: success.min_clearance_m + process.plan_margin_m
 

@@ -5,9 +5,9 @@ from ``numpy.random.default_rng(seed)``, uniformly over a :class:`Region` of the
 (trailer-axle position and heading, hitch angle; by default the goal is at the origin, heading 0,
 so it is the parking frame), so case ``i`` is the same whatever runs it. Over a scene of obstacles
 (a scenario's, :func:`config_from_scenario`), a start that does not keep
-:attr:`~hitchpark.maneuver.settings.ManeuverSettings.start_clearance_m` (``success.min_clearance_m`` and the
-guard's margin: nearer, the guard does not let the car move) clear of it is drawn again, and counted as
-skipped (:func:`draw_clear_starts`). Each case parks once;
+:attr:`~hitchpark.maneuver.settings.ManeuverSettings.start_clearance_m` (``success.min_clearance_m``, the
+guard's margin and the planner's for a start: nearer, the car cannot move away) clear of it is drawn again,
+and counted as skipped (:func:`draw_clear_starts`). Each case parks once;
 its :class:`~.records.CaseRecord` is appended to a JSONL file as soon as it is known, and a sweep run
 again on the same file runs only the cases it lacks (:func:`run_sweep`).
 """

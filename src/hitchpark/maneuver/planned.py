@@ -87,9 +87,9 @@ class PlannedProcess:
         self.vehicle, self.settings, self.scene, self.nmpc = vehicle, settings, scene, nmpc
         clearance = settings.success.min_clearance_m + settings.process.plan_margin_m
         clearance = max(settings.planner.min_clearance_m, clearance)
-        # A start nearer the scene than that, but as far as the guard lets the car move (the sweep's starts keep
-        # settings.start_clearance_m), is planned from keeping its own clearance.
-        slack = max(0.0, clearance - settings.start_clearance_m)
+        # A start nearer the scene than that is planned from keeping its own clearance, down to where the guard
+        # stops the car (the sweep's starts keep settings.start_clearance_m, a little more).
+        slack = max(0.0, clearance - settings.guard_clearance_m)
         self.planner = replace(settings.planner, min_clearance_m=clearance, start_slack_m=slack)
         self.tracking = settings.tracking
         self.guard = None

@@ -16,6 +16,7 @@ from ..control.ocp import NMPCSettings
 from ..control.path_tracking import TrackingSettings
 from ..control.pure_pursuit import PurePursuitSettings
 from ..planning import PlannerSettings
+from ..planning.search import START_MARGIN_M
 
 __all__ = [
     "MAX_MANEUVER_TIME",
@@ -116,11 +117,18 @@ class ManeuverSettings:
     planner: PlannerSettings = field(default_factory=PlannerSettings)
 
     @property
-    def start_clearance_m(self) -> float:
-        """How far [m] a start among obstacles must be from them for the car to move at all: the guard stops it
-        nearer than ``success.min_clearance_m + process.guard_margin_m`` (the sweep's starts keep this; a
-        planned path from a start that keeps less than the planner's clearance keeps what the start keeps)."""
+    def guard_clearance_m(self) -> float:
+        """Nearer the scene than this [m] the guard stops the car: ``success.min_clearance_m +
+        process.guard_margin_m``. A planned path keeps at least this (from a start nearer than the planner's
+        clearance, what the start keeps)."""
         return self.success.min_clearance_m + self.process.guard_margin_m
+
+    @property
+    def start_clearance_m(self) -> float:
+        """How far [m] a start among obstacles must be from them to move away: :attr:`guard_clearance_m` and the
+        planner's margin for a start (:data:`~hitchpark.planning.search.START_MARGIN_M`). A sweep's starts keep
+        this much."""
+        return self.guard_clearance_m + START_MARGIN_M
 
     def to_dict(self) -> dict[str, Any]:
         return {name: asdict(getattr(self, name)) for name in SETTINGS_TABLES}

@@ -15,14 +15,21 @@ from __future__ import annotations
 import functools
 import hashlib
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
 
+from ..model.state import Pose, to_goal_frame
 from .cache import cached_arrays
+from .settings import PlannerSettings
 
-__all__ = ["TrailerTable", "trailer_table"]
+if TYPE_CHECKING:
+    from .grid import HolonomicHeuristic
+    from .tree import GoalTree
+
+__all__ = ["VIA_TREE_NODES", "CostToGo", "TrailerTable", "trailer_table"]
 
 
 class TrailerTable:
@@ -107,3 +114,60 @@ def trailer_table(
     key = hashlib.sha256(repr(("trailer-table-v1", *args)).encode()).hexdigest()[:20]
     arrays = cached_arrays(f"planner-table-{key}", ("cost",), lambda: {"cost": TrailerTable(*args).cost})
     return TrailerTable(*args, cost=arrays["cost"])  # (one of another shape is built again)
+
+
+#: Away from the goal tree, the search's heuristic goes by way of this many of its nodes nearest in place.
+VIA_TREE_NODES = 24
+
+
+class CostToGo:
+    """The search's heuristic [m], inflated by ``heuristic_weight``: the largest of the straight distance (around
+    the obstacles, :class:`~.grid.HolonomicHeuristic`, where there are some) with ``heuristic_yaw_m`` per radian
+    of heading, and the trailer's obstacle-free cost (:class:`TrailerTable`); ``heuristic_hitch_m`` per radian
+    of hitch more. With a goal tree (:mod:`.tree`): the tree's cost where a node of it is near (a single reverse
+    run in is known from there); elsewhere a change of direction more than the larger of that and the way by
+    the tree's nodes nearest in place (the table's cost to a node's pose and the node's cost: the search is
+    drawn to where a way in begins, heading as it does, not only towards the goal)."""
+
+    def __init__(
+        self,
+        goal: Pose,
+        settings: PlannerSettings,
+        holonomic: HolonomicHeuristic | None,
+        table: TrailerTable | None,
+        tree: GoalTree | None,
+    ):
+        self.goal, self.settings, self.holonomic, self.table, self.tree = goal, settings, holonomic, table, tree
+
+    def __call__(self, states: np.ndarray) -> np.ndarray:
+        """Of configurations (n, 4)."""
+        s = self.settings
+        gx, gy, gyaw = to_goal_frame(self.goal, states[:, 0], states[:, 1], states[:, 2])
+        distance = np.hypot(gx, gy)
+        if self.holonomic is not None:
+            distance = np.maximum(distance, self.holonomic(states[:, 0], states[:, 1]))
+        h = distance + s.heuristic_yaw_m * np.abs(gyaw)
+        if self.table is not None:
+            h = np.fmax(h, self.table(gx, gy, gyaw))  # nan (off the table) leaves h
+        h = h + s.heuristic_hitch_m * np.abs(states[:, 3])
+        if self.tree is not None:
+            by_tree = self.tree.estimate(states)
+            far = np.maximum(h, self._via_tree(states)) + s.weight_switch
+            h = np.where(np.isfinite(by_tree), by_tree, far)
+        return np.asarray(s.heuristic_weight * h, dtype=float)
+
+    def _via_tree(self, states: np.ndarray) -> np.ndarray:
+        """Cost-to-go [m] by way of the tree's :data:`VIA_TREE_NODES` nodes nearest in place: a node's cost and
+        the table's cost from the configuration to the node's pose (the node as its goal). 0 where there is no
+        table or no node is on it (the other terms then decide)."""
+        assert self.tree is not None
+        if self.table is None:
+            return np.zeros(len(states))
+        index = self.tree.nearest_places(states[:, :2], VIA_TREE_NODES)  # (n, k)
+        node = self.tree.states[index]  # (n, k, 5)
+        c, sn = np.cos(node[..., 2]), np.sin(node[..., 2])
+        dx, dy = states[:, None, 0] - node[..., 0], states[:, None, 1] - node[..., 1]
+        to_node = self.table(c * dx + sn * dy, -sn * dx + c * dy, states[:, None, 2] - node[..., 2])
+        total = np.where(np.isnan(to_node), np.inf, to_node + self.tree.cost[index])
+        best = total.min(axis=1)
+        return np.where(np.isfinite(best), best, 0.0)

@@ -10,7 +10,6 @@ from dataclasses import replace
 import numpy as np
 
 from ..checks import InputError, check_instance
-from ..control.clearance import prepare_lines
 from ..control.pure_pursuit import forward_steer_limit
 from ..model.collision import MAX_STEP_M, closest, swept_clearance
 from ..model.scene import Scene
@@ -18,13 +17,15 @@ from ..model.state import Pose, State, check_goal, check_state, goal_frame_posit
 from ..model.vehicle import VehicleTrailer, check_vehicle
 from .endgame import EndGame, Landing
 from .grid import HolonomicHeuristic, Screen, distance_grid
-from .heuristic import TrailerTable, trailer_table
+from .heuristic import CostToGo, trailer_table
 from .motion import PrimitiveBatch
 from .nodes import Node
 from .opening import OPENING_FORWARD_M, opening
-from .refine import REFINE_PLANES, refine_plan, refine_solver
+from .prepare import prepare as _prepare
+from .prepare import scene_bounds
+from .refine import refine_plan
 from .settings import Plan, PlannerSettings, arrived
-from .tree import NEAR_M, TREE_MAX_M, GoalTree, goal_tree
+from .tree import NEAR_M, TREE_MAX_M, GoalTree
 
 __all__ = ["plan"]
 
@@ -98,74 +99,6 @@ def plan(
     return result  # pragma: no cover (the loop returns)
 
 
-def _prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: PlannerSettings) -> GoalTree | None:
-    """Build the batch rollouts and pursuits a search uses before its clock starts, and the goal tree among
-    obstacles (:mod:`.tree`, returned; the searches on finer grids use it as it is).
-
-    They are compiled to C once per machine (cached on disk, :func:`~hitchpark.native.native`) and loaded
-    once per process; that set-up is not planning, and must not eat a search's time limit: a first plan
-    on a cold cache would otherwise find another path than the same plan on a warm one.
-    """
-    PrimitiveBatch(
-        vehicle, OPENING_FORWARD_M, round(OPENING_FORWARD_M / settings.sample_step_m), settings.steer_samples
-    )
-    for size in (2 * settings.steer_samples, settings.steer_samples):  # all primitives, the reverse ones
-        PrimitiveBatch(vehicle, settings.primitive_length_m, settings.samples, size)
-    if settings.shot_length_m:
-        EndGame(vehicle, goal, settings).pursuit.prepare()
-    tree = None
-    if uses_tree(scene, settings):
-        tree = goal_tree(vehicle, goal, scene, tree_settings(settings), scene_bounds(vehicle, goal, scene, settings))
-    if settings.refine_m:
-        planes = 0 if scene.is_empty else REFINE_PLANES
-        refine_solver(vehicle, vehicle.max_hitch - settings.hitch_margin, planes, settings.refine_solver)
-        if planes:
-            prepare_lines()  # the refinement's lines around the scene
-    return tree
-
-
-def uses_tree(scene: Scene, settings: PlannerSettings) -> bool:
-    """Whether a plan uses a goal tree (:mod:`.tree`): among obstacles, with end-games."""
-    return not scene.is_empty and settings.shot_length_m > 0
-
-
-#: The settings a goal tree depends on (the others are reset, so that one tree serves every plan to its goal).
-TREE_FIELDS = (
-    "xy_resolution_m",
-    "yaw_bins",
-    "hitch_bins",
-    "primitive_length_m",
-    "sample_step_m",
-    "steer_samples",
-    "obstacle_virtual_limit",
-    "hitch_margin",
-    "min_clearance_m",
-    "collision_cell_m",
-    "search_margin_m",
-    "weight_steer_change",
-)
-
-
-def tree_settings(settings: PlannerSettings) -> PlannerSettings:
-    return PlannerSettings(**{name: getattr(settings, name) for name in TREE_FIELDS})
-
-
-def scene_bounds(
-    vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: PlannerSettings, start: np.ndarray | None = None
-) -> tuple[float, float, float, float]:
-    """Where the search may go: the area's box, or the goal, the obstacles (and the start) with a margin."""
-    if scene.area is not None:
-        lo, hi = scene.area.boundary.min(axis=0), scene.area.boundary.max(axis=0)
-        return float(lo[0]) - 1.0, float(lo[1]) - 1.0, float(hi[0]) + 1.0, float(hi[1]) + 1.0
-    points = [np.array([[goal.x, goal.y]])] + [o.polygon for o in scene.obstacles]
-    if start is not None:
-        points.append(np.asarray(start, dtype=float)[None, :2])
-    allp = np.vstack(points)
-    m = settings.search_margin_m + vehicle.trailer_length + vehicle.wheelbase
-    lo, hi = allp.min(axis=0) - m, allp.max(axis=0) + m
-    return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
-
-
 class _Search:
     def __init__(
         self,
@@ -194,10 +127,11 @@ class _Search:
             self.holonomic = HolonomicHeuristic(
                 self.grid, (goal.x, goal.y), keep, HEURISTIC_CELL_M, self.start[None, :2]
             )
-        self.table: TrailerTable | None = None
+        table = None
         if s.heuristic_radius_m > 0:
-            self.table = trailer_table(s.heuristic_radius_m, 0.5, 72, 1.0, s.weight_forward, s.weight_reverse)
+            table = trailer_table(s.heuristic_radius_m, 0.5, 72, 1.0, s.weight_forward, s.weight_reverse)
         self.tree = tree
+        self._heuristic = CostToGo(goal, s, self.holonomic, table, tree)
         self.tried: set[tuple[int, ...]] = set()  # the sets of tree nodes shots were taken along
         self.expanded = 0
         self.closest: Node | None = None  # the expanded node nearest the goal (for a plan that finds nothing)
@@ -254,25 +188,6 @@ class _Search:
         reverse = np.arctan(v.wheelbase / v.hitch_offset * (sn - c * t) / (c + sn * t))  # Eq. (45)
         return np.where(self.directions > 0, self.commands, np.minimum(np.maximum(reverse, -v.max_steer), v.max_steer))
 
-    def _heuristic(self, states: np.ndarray) -> np.ndarray:
-        s = self.settings
-        gx, gy, gyaw = to_goal_frame(self.goal, states[:, 0], states[:, 1], states[:, 2])
-        distance = np.hypot(gx, gy)
-        if self.holonomic is not None:
-            distance = np.maximum(distance, self.holonomic(states[:, 0], states[:, 1]))
-        h = distance + s.heuristic_yaw_m * np.abs(gyaw)
-        if self.table is not None:
-            h = np.fmax(h, self.table(gx, gy, gyaw))  # nan (off the table) leaves h
-        h = h + s.heuristic_hitch_m * np.abs(states[:, 3])
-        if self.tree is not None:
-            # By way of the goal tree where a node of it is near (a single reverse run in is known from there);
-            # elsewhere a change of direction more, and the way to the nearest node (in the tree's metric: the
-            # search is drawn to the tree's poses, headings and hitch angles, not only towards the goal).
-            by_tree = self.tree.estimate(states)
-            far = np.maximum(h, self.tree.estimate(states, math.inf)) + s.weight_switch
-            h = np.where(np.isfinite(by_tree), by_tree, far)
-        return np.asarray(s.heuristic_weight * h, dtype=float)
-
     def _at_goal(self, states: np.ndarray) -> np.ndarray:
         gx, gy = goal_frame_position(self.goal, states[..., 0], states[..., 1])
         yaw = states[..., 2]
@@ -313,8 +228,10 @@ class _Search:
             exact, _ = swept_clearance(self.vehicle, self.scene, self.start[None, :])
             if exact < s.min_clearance_m - s.start_slack_m:
                 return self._done("no_path", f"the start keeps only {exact:.3g} m from the scene")
-            if exact < s.min_clearance_m:  # within the slack: the path keeps what the start keeps
-                keep = max(exact - START_MARGIN_M, s.min_clearance_m - s.start_slack_m)
+            if s.start_slack_m > 0.0 and exact < s.min_clearance_m + START_MARGIN_M:
+                # Within the slack, or just clear: the path keeps what the start keeps, less the margin (any
+                # turn away from a kerb the start stands by swings some body nearer it).
+                keep = max(min(s.min_clearance_m, exact - START_MARGIN_M), s.min_clearance_m - s.start_slack_m)
                 self.screen = Screen(self.vehicle, self.scene, self.grid, keep)
             # Exactly (the fast check is conservative by a few decimetres, and a goal in a tight space is the point).
             at_goal, _ = swept_clearance(

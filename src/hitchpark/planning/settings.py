@@ -99,8 +99,9 @@ class PlannerSettings:
         Least distance [m] of every body from every obstacle and from the area's boundary.
     start_slack_m : float
         A start up to this much [m] nearer the scene than ``min_clearance_m`` is planned from: the search keeps
-        the start's own clearance (less 3 cm, at least ``min_clearance_m - start_slack_m``) instead (the goal
-        tree and the refined end keep ``min_clearance_m``); 0: such a start is ``no_path``.
+        the start's own clearance less 3 cm (at least ``min_clearance_m - start_slack_m``) instead, as it does
+        for a start less than 3 cm clearer than ``min_clearance_m`` (the goal tree and the refined end keep
+        ``min_clearance_m``); 0: such a start is ``no_path``, and the search keeps ``min_clearance_m``.
     collision_cell_m : float
         Cell of the obstacle distance grid [m] (the fast check's error is about 1.5 cells, counted against
         it: a finer cell lets the search pass closer).

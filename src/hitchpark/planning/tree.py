@@ -96,6 +96,7 @@ class GoalTree:
         self.states, self.parent = arrays["states"], arrays["parent"].astype(np.int64)
         self.cost, self.samples = arrays["cost"], arrays["samples"]
         self._index = cKDTree(self._features(self.states[:, :4]))
+        self._places = cKDTree(self.states[:, :2])
 
     @property
     def arrays(self) -> dict[str, np.ndarray]:
@@ -198,6 +199,12 @@ class GoalTree:
         found = index < len(self.states)
         cost = np.where(found, self.cost[np.minimum(index, len(self.states) - 1)] + distance, np.inf)
         return cost.min(axis=1)
+
+    def nearest_places(self, xy: np.ndarray, count: int) -> np.ndarray:
+        """The ``count`` tree nodes nearest each point (n, 2) by position alone: indices (n, count)."""
+        k = min(count, len(self.states))
+        _, index = self._places.query(np.asarray(xy, dtype=float), k=k)
+        return np.asarray(index).reshape(len(xy), k)
 
     def path(self, node: int) -> np.ndarray:
         """The reverse run from ``node`` into the goal: (x, y, yaw, hitch, steer) rows, the node's state first and
