@@ -29,8 +29,8 @@ def prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Planner
     obstacles (:mod:`.tree`, returned; the searches on finer grids use it as it is).
 
     They are compiled to C once per machine (cached on disk, :func:`~hitchpark.native.native`) and loaded
-    once per process; that set-up is not planning, and must not eat a search's time limit: a first plan
-    on a cold cache would otherwise find another path than the same plan on a warm one.
+    once per process; that set-up is not planning, and is not counted in a plan's time (nor in its safety
+    net's).
     """
     PrimitiveBatch(
         vehicle, OPENING_FORWARD_M, round(OPENING_FORWARD_M / settings.sample_step_m), settings.steer_samples
