@@ -9,8 +9,8 @@ steer-rate and jackknife limits enforced at every sample, collisions screened wi
 grid and the result confirmed by the exact swept clearance. It returns a :class:`Plan`: ``found`` with
 the path, or ``no_path`` (also when its budget of expansions is spent: a count, so the same plan on any
 machine) / ``planner_timeout`` (a wall-clock safety net). The search stops within the goal tolerance;
-:mod:`.refine` then solves the end of the last reverse run again on the full model, to end exactly at the goal with the hitch
-and the steer straight.
+:mod:`.refine` then solves the end of the last reverse run again on the full model, to end exactly at the
+goal with the hitch and the steer straight.
 """
 
 from .search import plan
