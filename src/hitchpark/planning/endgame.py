@@ -127,9 +127,9 @@ class EndGame:
         self, state: np.ndarray, steer: float, tree: GoalTree, tried: set[tuple[int, ...]] | None = None
     ) -> list[Landing]:
         """Reverse runs from ``state`` along the paths of the nearest nodes of ``tree`` into the goal (the
-        trailer axle pursuing each, as a Dubins shot pursues its word, at the tree's virtual steer), shortest
-        first. ``tried``: the sets of tree nodes shots were taken along before (from a neighbouring
-        configuration); one of them is not tried again, and a new one is added."""
+        trailer axle pursuing each, as a Dubins shot pursues its word, its virtual steer within
+        ``obstacle_virtual_limit``), shortest first. ``tried``: the sets of tree nodes shots were taken along
+        before (from a neighbouring configuration); one of them is not tried again, and a new one is added."""
         near = tree.near(state, self.pursuit.runs // len(TREE_LOOKAHEADS))
         if len(near) == 0:
             return []

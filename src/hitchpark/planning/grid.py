@@ -4,7 +4,7 @@
 lies within half a cell diagonal of an obstacle or of the outside of the area, so every obstacle point
 lies in a blocked cell. The Euclidean distance transform (:func:`scipy.ndimage.distance_transform_edt`)
 of the free cells gives, at a point's cell, a distance that overestimates the true distance to the
-scene by at most one cell diagonal; :meth:`DistanceGrid.clear` subtracts that.
+scene by at most one cell diagonal; :meth:`Discs.margins` subtracts that.
 
 **Outline points.** Points at most 0.1 m apart on the outlines of the vehicle and trailer bodies, the
 drawbar and the tow bar. A configuration is clear when every point is more than half the spacing,
@@ -183,10 +183,6 @@ class DistanceGrid:
         out = np.full(np.shape(x), -np.inf)
         out[inside] = self.distance[i[inside], j[inside]]
         return out
-
-    def clear(self, x: np.ndarray, y: np.ndarray, need: np.ndarray) -> np.ndarray:
-        """True where the true distance from the scene surely exceeds ``need`` (broadcast with x, y)."""
-        return self.lookup(x, y) - self.error > need
 
 
 @functools.lru_cache(maxsize=8)

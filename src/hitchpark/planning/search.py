@@ -25,7 +25,7 @@ from .prepare import prepare as _prepare
 from .prepare import scene_bounds
 from .refine import refine_plan
 from .settings import Plan, PlannerSettings, arrived
-from .tree import NEAR_M, TREE_MAX_M, GoalTree
+from .tree import NEAR_M, TREE_MAX_M, GoalTree, cell_key
 
 __all__ = ["plan"]
 
@@ -171,15 +171,7 @@ class _Search:
             self._set_limit(s, s.virtual_limit)
 
     def _key(self, state: np.ndarray) -> tuple[int, int, int, int]:
-        s = self.settings
-        yaw_cell = 2 * math.pi / s.yaw_bins
-        hitch_cell = 2 * self.vehicle.max_hitch / s.hitch_bins
-        return (
-            math.floor(state[0] / s.xy_resolution_m),
-            math.floor(state[1] / s.xy_resolution_m),
-            math.floor((float(state[2]) % (2 * math.pi)) / yaw_cell) % s.yaw_bins,
-            math.floor((state[3] + self.vehicle.max_hitch) / hitch_cell),
-        )
+        return cell_key(state, self.settings, self.vehicle.max_hitch)
 
     def _initial_steer(self, hitch: float) -> np.ndarray:
         """The steer each command sets at standstill: the front steer itself forward, Eq. (45) in reverse."""
