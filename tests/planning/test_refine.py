@@ -80,7 +80,7 @@ def to_world(goal: Pose, start: State) -> tuple[float, float, float, float]:
 
 
 def test_among_obstacles_the_refined_end_keeps_the_clearance():
-    """curb_parallel: its goal keeps 0.325 m from the curb and the parked cars; the refined path reaches it
+    """curb_parallel: its goal keeps 0.425 m from the curb and the parked cars; the refined path reaches it
     and keeps the planner's clearance over the continuous motion."""
     sc = builtin_scenario("curb_parallel")
     # The file's generous time limit, not the scene's 5 s (about twice this search on an idle machine): the

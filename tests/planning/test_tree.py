@@ -15,7 +15,7 @@ from hitchpark.model import State
 from hitchpark.model.collision import clearance, swept_clearance
 from hitchpark.model.kinematics import full_rhs
 from hitchpark.model.state import to_goal_frame
-from hitchpark.planning import cache, plan, tree
+from hitchpark.planning import cache, endgame, plan, tree
 from hitchpark.planning.prepare import scene_bounds, tree_settings
 
 CLEARANCE = 0.3  # the planned process's: success.min_clearance_m + process.plan_margin_m
@@ -56,6 +56,40 @@ def test_every_tree_path_is_a_reverse_run_into_the_goal_that_keeps_clear(drivewa
         moves = np.diff(path[:, :4], axis=0)
         # (The last step, into the goal, is the root's first motion, steered at standstill: its own steer.)
         np.testing.assert_allclose(moves[:-1], step * slope[:-1], atol=2e-3)
+
+
+def test_a_tree_shot_that_comes_onto_its_tree_path_is_handed_off_to_it(driveway):
+    """A run started off a tree node's path comes onto it and is handed off: from there on the landing is the
+    tree's path sample for sample (exact to the goal, not pursued), and where the two meet they agree within
+    the hand-off's tolerances."""
+    sc, grown = driveway
+    s = _settings(sc)
+    game = endgame.EndGame(sc.vehicle, sc.goal, s)
+    far = np.flatnonzero((grown.cost > 15.0) & (np.abs(grown.states[:, 3]) < 0.05))
+    handed = 0
+    for node in far[:: max(1, len(far) // 12)][:12]:
+        x, y, yaw, hitch, steer = grown.states[node]
+        start = np.array([x - 0.25 * math.sin(yaw), y + 0.25 * math.cos(yaw), yaw + 0.02, hitch])  # 0.25 m aside
+        for world, steers in game.tree_shots(start, float(steer), grown):
+            ends = world[-1]
+            if not np.allclose(ends, [sc.goal.x, sc.goal.y, sc.goal.yaw, 0.0], atol=1e-12):
+                continue  # landed in the tolerance by pursuit alone
+            # Find the tree path it was handed to: the one its last samples are.
+            for other in grown.near(start, 6):
+                path = grown.path(int(other))
+                tail = min(len(path), len(world)) - 1
+                shared = np.all(world[-tail:] == path[-tail:, :4], axis=1)
+                k = int(np.argmin(shared[::-1])) if not shared.all() else tail  # samples shared from the end
+                if k < 5:
+                    continue
+                handed += 1
+                meet = len(world) - k - 1  # the run's last pursued sample, and the path's sample after it
+                j = len(path) - k - 1
+                assert np.hypot(*(world[meet, :2] - path[j, :2])) <= endgame.HANDOFF_M + 1e-12
+                assert abs(world[meet, 3] - path[j, 3]) <= endgame.HANDOFF_ANGLE + 1e-12
+                np.testing.assert_array_equal(steers[-k:], path[-k:, 4])
+                break
+    assert handed >= 3
 
 
 def test_the_tree_is_cached_on_disk_and_read_back_the_same(driveway, tmp_path, monkeypatch):

@@ -22,7 +22,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..model.state import Pose, to_goal_frame
+from ..model.inverse import virtual_steer_from_front
+from ..model.state import Pose, to_goal_frame, wrap_angle
 from ..model.vehicle import VehicleTrailer
 from .dubins import dubins_words, sample_word
 from .motion import GoalShot, PathPursuit
@@ -55,6 +56,15 @@ TREE_LOOKAHEADS = (2.0, 3.0, 4.5)
 #: much of it [m] (at most half of it).
 TREE_BLEND_M = 6.0
 
+#: A tree shot is handed off to its tree path where it comes this near one of the path's samples [m] ...
+HANDOFF_M = 0.05
+
+#: ... with its heading and hitch this near the sample's [rad] ...
+HANDOFF_ANGLE = math.radians(1.0)
+
+#: ... and its front steer within what the steer rate turns in this many samples at 1 m/s.
+HANDOFF_STEER_SAMPLES = 1.0
+
 #: A Dubins run farther than this from its reference is given up [m].
 DUBINS_MAX_DEVIATION_M = 2.0
 
@@ -66,8 +76,9 @@ class EndGame:
     """Single reverse runs into the goal tolerance for one vehicle, goal and settings."""
 
     def __init__(self, vehicle: VehicleTrailer, goal: Pose, settings: PlannerSettings):
-        self.goal, self.settings = goal, settings
+        self.vehicle, self.goal, self.settings = vehicle, goal, settings
         self.hitch_limit = vehicle.max_hitch - settings.hitch_margin
+        self.rate_step = vehicle.max_steer_rate * settings.sample_step_m * HANDOFF_STEER_SAMPLES  # [rad]
         self.line = GoalShot(vehicle, settings.sample_step_m, SHOT_LOOKAHEADS)
         self.least_radius = vehicle.trailer_length / math.tan(settings.virtual_limit)  # Eq. (42)
         self.approaches = tuple(a + settings.goal_line_from_m for a in DUBINS_APPROACHES)
@@ -129,7 +140,13 @@ class EndGame:
         """Reverse runs from ``state`` along the paths of the nearest nodes of ``tree`` into the goal (the
         trailer axle pursuing each, as a Dubins shot pursues its word, its virtual steer within
         ``obstacle_virtual_limit``), shortest first. ``tried``: the sets of tree nodes shots were taken along
-        before (from a neighbouring configuration); one of them is not tried again, and a new one is added."""
+        before (from a neighbouring configuration); one of them is not tried again, and a new one is added.
+
+        A run that comes onto its tree path (within :data:`HANDOFF_M`, :data:`HANDOFF_ANGLE` of heading and
+        hitch, and a sample's steer change at the steer rate, of one of its samples past the blend) is handed
+        off there: the rest is the tree's own path, exact to the goal. Pure pursuit cuts the corners of a path
+        by up to decimetres; the tree's path keeps its clearance where a place is tight.
+        """
         near = tree.near(state, self.pursuit.runs // len(TREE_LOOKAHEADS))
         if len(near) == 0:
             return []
@@ -140,11 +157,12 @@ class EndGame:
         s = self.settings
         step = s.sample_step_m
         tail = np.arange(-step, -(DUBINS_LOOKAHEAD_M + s.goal_tolerance_m + step), -step)  # on along the goal line
-        references = []
+        references, exact = [], []
         gx, gy, gyaw = self.in_goal_frame(state)
         for node in near:
             path = tree.path(int(node))
-            px, py, _ = to_goal_frame(self.goal, path[:, 0], path[:, 1], path[:, 2])
+            px, py, pyaw = to_goal_frame(self.goal, path[:, 0], path[:, 1], path[:, 2])
+            tree_path = np.column_stack([px, py, pyaw, path[:, 3], path[:, 4]])
             # The node's path moved to start where the run starts, the offset taken out over its first
             # TREE_BLEND_M (a smoothstep): the pursuit starts on its reference instead of catching it up.
             along = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(px), np.diff(py)))])
@@ -153,9 +171,47 @@ class EndGame:
             px, py = px + weight * (gx - px[0]), py + weight * (gy - py[0])
             reference = np.vstack([np.column_stack([px, py]), np.column_stack([tail, np.zeros(len(tail))])])
             references += [reference] * len(TREE_LOOKAHEADS)
-        lookaheads = np.resize(TREE_LOOKAHEADS, len(references))
+            # Hand-offs only where the rest of the path holds the virtual steer (Eq. 56) the runs hold: a tree
+            # path may turn tighter (forward, out of the goal), and a tracker would drive that nearer a jackknife.
+            virtual = np.abs(virtual_steer_from_front(self.vehicle, path[:-1, 3], path[:-1, 4]))
+            tight = np.flatnonzero(virtual > s.obstacle_virtual_limit)
+            first = max(int(np.argmax(weight == 0.0)), int(tight[-1]) + 1 if len(tight) else 0)
+            exact += [(tree_path, first)] * len(TREE_LOOKAHEADS)
+        lookaheads = np.resize(TREE_LOOKAHEADS, self.pursuit.runs)
+        lookaheads[len(references) :] = lookaheads[len(references) - 1]
+        while len(references) < self.pursuit.runs:  # fewer references than runs: repeat the last
+            references.append(references[-1])
+            exact.append(exact[-1])
+        handoff = _HandOff(exact, self.settings, self.rate_step)
         start = np.array([gx, gy, gyaw, state[3], steer])
-        return self._pursue(start, references, s.obstacle_virtual_limit, lookaheads=lookaheads)
+
+        def ended(states: np.ndarray, deviation: np.ndarray) -> np.ndarray:
+            return self._dubins_ended(states, deviation) | handoff.onto(states, deviation)[0]
+
+        longest = max(len(r) for r in references)
+        padded = np.stack([np.vstack([r, np.repeat(r[-1:], longest - len(r), axis=0)]) for r in references])
+        runs = self.pursuit.run(start, padded, lookaheads, s.obstacle_virtual_limit, ended)
+        found: list[np.ndarray] = []
+        for r, run in enumerate(runs):
+            last = len(run) - 1
+            while last > 0 and np.array_equal(run[last], run[last - 1]):  # a run that ended is padded
+                last -= 1
+            onto, at = handoff.onto_run(r, run[last][None, :])
+            if last > 0 and onto[0]:
+                tree_path, _ = exact[r]
+                part = np.vstack([run[1 : last + 1], tree_path[int(at[0]) + 1 :]])
+            else:
+                hits = self.at_goal(run[1 : last + 1])
+                if not hits.any():
+                    continue
+                part = run[1 : int(np.argmax(hits)) + 2]
+            if np.any(np.abs(part[:, 3]) > self.hitch_limit) or not np.all(np.isfinite(part)):
+                continue
+            if any(len(other) == len(part) and np.array_equal(other, part) for other in found):
+                continue
+            found.append(part)
+        found.sort(key=len)
+        return [self._world(part) for part in found]
 
     def _pursue(
         self,
@@ -260,3 +316,42 @@ class EndGame:
         world[:, 1] = goal.y + sn * part[:, 0] + c * part[:, 1]
         world[:, 2] = part[:, 2] + goal.yaw
         return world, part[:, 4]
+
+
+class _HandOff:
+    """Where tree shots come onto their tree paths (:meth:`EndGame.tree_shots`): ``exact``, per run, its tree
+    path (goal frame, (m, 5)) and the first sample a run may be handed to (past the blend, and past every sample
+    whose virtual steer is beyond the runs')."""
+
+    def __init__(self, exact: list[tuple[np.ndarray, int]], settings: PlannerSettings, steer_step: float):
+        self.exact, self.steer_step = exact, steer_step
+
+    def onto(self, states: np.ndarray, deviation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rows (run-major, as :meth:`.motion.PathPursuit.run` asks) on their tree paths, and the sample each is
+        on (-1 where none)."""
+        runs = len(self.exact)
+        per = len(states) // runs
+        onto = np.zeros(len(states), dtype=bool)
+        at = np.full(len(states), -1)
+        for row in np.flatnonzero(deviation <= HANDOFF_M):
+            ok, where = self.onto_run(int(row // per), states[row : row + 1])
+            onto[row], at[row] = ok[0], where[0]
+        return onto, at
+
+    def onto_run(self, run: int, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """As :meth:`onto`, for ``states`` (n, 5) of run ``run``."""
+        path, first = self.exact[run]
+        tail = path[first:]
+        if len(tail) < 2:
+            return np.zeros(len(states), dtype=bool), np.full(len(states), -1)
+        d2 = (states[:, None, 0] - tail[None, :, 0]) ** 2 + (states[:, None, 1] - tail[None, :, 1]) ** 2
+        j = np.argmin(d2, axis=1)
+        p = tail[j]
+        ok = (
+            (d2[np.arange(len(states)), j] <= HANDOFF_M**2)
+            & (np.abs(wrap_angle(states[:, 2] - p[:, 2])) <= HANDOFF_ANGLE)
+            & (np.abs(states[:, 3] - p[:, 3]) <= HANDOFF_ANGLE)
+            & (np.abs(states[:, 4] - p[:, 4]) <= self.steer_step)
+            & (j + first < len(path) - 1)  # not the goal itself (that is a landing as any other)
+        )
+        return ok, np.where(ok, j + first, -1)
