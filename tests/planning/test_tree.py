@@ -63,32 +63,25 @@ def test_a_tree_shot_that_comes_onto_its_tree_path_is_handed_off_to_it(driveway)
     tree's path sample for sample (exact to the goal, not pursued), and where the two meet they agree within
     the hand-off's tolerances."""
     sc, grown = driveway
-    s = _settings(sc)
-    game = endgame.EndGame(sc.vehicle, sc.goal, s)
+    game = endgame.EndGame(sc.vehicle, sc.goal, _settings(sc))
     far = np.flatnonzero((grown.cost > 15.0) & (np.abs(grown.states[:, 3]) < 0.05))
     handed = 0
     for node in far[:: max(1, len(far) // 12)][:12]:
         x, y, yaw, hitch, steer = grown.states[node]
         start = np.array([x - 0.25 * math.sin(yaw), y + 0.25 * math.cos(yaw), yaw + 0.02, hitch])  # 0.25 m aside
-        for world, steers in game.tree_shots(start, float(steer), grown):
-            ends = world[-1]
-            if not np.allclose(ends, [sc.goal.x, sc.goal.y, sc.goal.yaw, 0.0], atol=1e-12):
+        for world, steers, pursued in game.tree_shots(start, float(steer), grown):
+            if pursued == len(world):
                 continue  # landed in the tolerance by pursuit alone
-            # Find the tree path it was handed to: the one its last samples are.
-            for other in grown.near(start, 6):
-                path = grown.path(int(other))
-                tail = min(len(path), len(world)) - 1
-                shared = np.all(world[-tail:] == path[-tail:, :4], axis=1)
-                k = int(np.argmin(shared[::-1])) if not shared.all() else tail  # samples shared from the end
-                if k < 5:
-                    continue
-                handed += 1
-                meet = len(world) - k - 1  # the run's last pursued sample, and the path's sample after it
-                j = len(path) - k - 1
-                assert np.hypot(*(world[meet, :2] - path[j, :2])) <= endgame.HANDOFF_M + 1e-12
-                assert abs(world[meet, 3] - path[j, 3]) <= endgame.HANDOFF_ANGLE + 1e-12
-                np.testing.assert_array_equal(steers[-k:], path[-k:, 4])
-                break
+            handed += 1
+            np.testing.assert_array_equal(world[-1], [sc.goal.x, sc.goal.y, sc.goal.yaw, 0.0])
+            # The rest is the path of one of the near nodes, from the sample after the one the run came onto.
+            rest = np.column_stack([world[pursued:], steers[pursued:]])
+            paths = [grown.path(int(other)) for other in grown.near(start, 6)]
+            path = next(p for p in paths if len(p) > len(rest) and np.array_equal(p[-len(rest) :], rest))
+            onto = path[-len(rest) - 1]
+            assert np.hypot(*(world[pursued - 1, :2] - onto[:2])) <= endgame.HANDOFF_M + 1e-12
+            assert abs(world[pursued - 1, 2] - onto[2]) <= endgame.HANDOFF_ANGLE + 1e-12
+            assert abs(world[pursued - 1, 3] - onto[3]) <= endgame.HANDOFF_ANGLE + 1e-12
     assert handed >= 3
 
 

@@ -26,11 +26,12 @@ from ..model.inverse import virtual_steer_from_front
 from ..model.state import Pose, to_goal_frame, wrap_angle
 from ..model.vehicle import VehicleTrailer
 from .dubins import dubins_words, sample_word
+from .grid import Screen
 from .motion import GoalShot, PathPursuit
 from .settings import PlannerSettings, arrived
 from .tree import GoalTree
 
-__all__ = ["EndGame", "Landing"]
+__all__ = ["EndGame", "Landing", "TreeLanding"]
 
 #: Look-aheads of the goal-line shots [m].
 SHOT_LOOKAHEADS = (2.5, 4.0, 6.0)
@@ -71,6 +72,10 @@ DUBINS_MAX_DEVIATION_M = 2.0
 #: Landing: world-frame samples (k, 4) after the run's start and the front steer at them (k,).
 Landing = tuple[np.ndarray, np.ndarray]
 
+#: A tree shot's landing, and how many of its first samples were pursued (the rest, a tree path's, keeps clear
+#: by the tree's making: only those, and the first of the rest, need screening).
+TreeLanding = tuple[np.ndarray, np.ndarray, int]
+
 
 class EndGame:
     """Single reverse runs into the goal tolerance for one vehicle, goal and settings."""
@@ -105,8 +110,10 @@ class EndGame:
         max_length: float,
         takes: Callable[[Landing], bool] | None = None,
         within: int | None = None,
+        screen: Screen | None = None,
     ) -> list[Landing]:
-        """Dubins shots from ``state`` with the front steer ``steer``, shortest first.
+        """Dubins shots from ``state`` with the front steer ``steer``, shortest first; ``screen``: see
+        :meth:`tree_shots`.
 
         Only references up to ``max_length`` (trailer axle, to the goal) are pursued. A caller that takes
         the shortest landing it accepts can say which it accepts (``takes``) and how long a landing it has
@@ -132,15 +139,22 @@ class EndGame:
                     points = np.vstack([points, np.column_stack([line, np.zeros(len(line))])])
                     references.append(points)
         start = np.array([gx, gy, gyaw, state[3], steer])
-        return self._pursue(start, references, s.virtual_limit, takes, within)
+        return self._pursue(start, references, s.virtual_limit, takes, within, screen=screen)
 
     def tree_shots(
-        self, state: np.ndarray, steer: float, tree: GoalTree, tried: set[tuple[int, ...]] | None = None
-    ) -> list[Landing]:
+        self,
+        state: np.ndarray,
+        steer: float,
+        tree: GoalTree,
+        tried: set[tuple[int, ...]] | None = None,
+        screen: Screen | None = None,
+    ) -> list[TreeLanding]:
         """Reverse runs from ``state`` along the paths of the nearest nodes of ``tree`` into the goal (the
         trailer axle pursuing each, as a Dubins shot pursues its word, its virtual steer within
         ``obstacle_virtual_limit``), shortest first. ``tried``: the sets of tree nodes shots were taken along
         before (from a neighbouring configuration); one of them is not tried again, and a new one is added.
+        ``screen``: runs that come surely too near the scene (:meth:`.grid.Screen.blocked`) are stopped there and
+        give no landing (the screen would refuse it).
 
         A run that comes onto its tree path (within :data:`HANDOFF_M`, :data:`HANDOFF_ANGLE` of heading and
         hitch, and a sample's steer change at the steer rate, of one of its samples past the blend) is handed
@@ -185,13 +199,15 @@ class EndGame:
         handoff = _HandOff(exact, self.settings, self.rate_step)
         start = np.array([gx, gy, gyaw, state[3], steer])
 
+        stopped = self._stopped(screen)
+
         def ended(states: np.ndarray, deviation: np.ndarray) -> np.ndarray:
-            return self._dubins_ended(states, deviation) | handoff.onto(states, deviation)[0]
+            return stopped(states, deviation) | handoff.onto(states, deviation)[0]
 
         longest = max(len(r) for r in references)
         padded = np.stack([np.vstack([r, np.repeat(r[-1:], longest - len(r), axis=0)]) for r in references])
         runs = self.pursuit.run(start, padded, lookaheads, s.obstacle_virtual_limit, ended)
-        found: list[np.ndarray] = []
+        found: list[tuple[np.ndarray, int]] = []
         for r, run in enumerate(runs):
             last = len(run) - 1
             while last > 0 and np.array_equal(run[last], run[last - 1]):  # a run that ended is padded
@@ -199,19 +215,20 @@ class EndGame:
             onto, at = handoff.onto_run(r, run[last][None, :])
             if last > 0 and onto[0]:
                 tree_path, _ = exact[r]
-                part = np.vstack([run[1 : last + 1], tree_path[int(at[0]) + 1 :]])
+                part, pursued = np.vstack([run[1 : last + 1], tree_path[int(at[0]) + 1 :]]), last
             else:
                 hits = self.at_goal(run[1 : last + 1])
                 if not hits.any():
                     continue
                 part = run[1 : int(np.argmax(hits)) + 2]
+                pursued = len(part)
             if np.any(np.abs(part[:, 3]) > self.hitch_limit) or not np.all(np.isfinite(part)):
                 continue
-            if any(len(other) == len(part) and np.array_equal(other, part) for other in found):
+            if any(len(other) == len(part) and np.array_equal(other, part) for other, _ in found):
                 continue
-            found.append(part)
-        found.sort(key=len)
-        return [self._world(part) for part in found]
+            found.append((part, pursued))
+        found.sort(key=lambda landing: len(landing[0]))
+        return [(*self._world(part), pursued) for part, pursued in found]
 
     def _pursue(
         self,
@@ -221,6 +238,7 @@ class EndGame:
         takes: Callable[[Landing], bool] | None = None,
         within: int | None = None,
         lookaheads: np.ndarray | None = None,
+        screen: Screen | None = None,
     ) -> list[Landing]:
         """The landings of reverse runs from ``start`` (goal frame) pursuing ``references`` (goal frame, (m, 2)
         each, at most the pursuit's runs) at the virtual steer ``limit``, each with its look-ahead [m] (default
@@ -243,7 +261,7 @@ class EndGame:
             def settles(run: np.ndarray) -> bool:  # a run that ended: a landing the caller takes?
                 return bool(self.at_goal(run[-1])) and takes(self._world(run[1:]))
 
-        found = self.pursuit.run(start, padded, ahead, limit, self._dubins_ended, settles, within)
+        found = self.pursuit.run(start, padded, ahead, limit, self._stopped(screen), settles, within)
         return self._landings(found)
 
     def dubins_estimate(self, state: np.ndarray) -> float:
@@ -287,6 +305,17 @@ class EndGame:
 
         return ended
 
+    def _stopped(self, screen: Screen | None) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+        """``ended`` of the pursuits (:meth:`.motion.PathPursuit.run`): :meth:`_dubins_ended`, and with a
+        ``screen``, a body surely too near the scene (:meth:`.grid.Screen.blocked`)."""
+        if screen is None:
+            return self._dubins_ended
+
+        def ended(states: np.ndarray, deviation: np.ndarray) -> np.ndarray:
+            return self._dubins_ended(states, deviation) | screen.blocked(self._world(states)[0])
+
+        return ended
+
     def _dubins_ended(self, states: np.ndarray, deviation: np.ndarray) -> np.ndarray:
         return self.at_goal(states) | self._lost(states) | (deviation > DUBINS_MAX_DEVIATION_M)
 
@@ -325,33 +354,40 @@ class _HandOff:
 
     def __init__(self, exact: list[tuple[np.ndarray, int]], settings: PlannerSettings, steer_step: float):
         self.exact, self.steer_step = exact, steer_step
+        longest = max(len(path) for path, _ in exact)
+        # Every run's path padded to one length, and the samples a run may be handed to (not the goal itself:
+        # that is a landing as any other).
+        self.paths = np.stack([np.vstack([p, np.repeat(p[-1:], longest - len(p), axis=0)]) for p, _ in exact])
+        index = np.arange(longest)[None, :]
+        self.firsts = np.array([first for _, first in exact])[:, None]
+        self.valid = (index >= self.firsts) & (index < np.array([len(p) - 1 for p, _ in exact])[:, None])
 
     def onto(self, states: np.ndarray, deviation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Rows (run-major, as :meth:`.motion.PathPursuit.run` asks) on their tree paths, and the sample each is
         on (-1 where none)."""
-        runs = len(self.exact)
-        per = len(states) // runs
+        per = len(states) // len(self.exact)
+        rows = np.flatnonzero(deviation <= HANDOFF_M)  # the deviation is from the reference: the path past the blend
         onto = np.zeros(len(states), dtype=bool)
         at = np.full(len(states), -1)
-        for row in np.flatnonzero(deviation <= HANDOFF_M):
-            ok, where = self.onto_run(int(row // per), states[row : row + 1])
-            onto[row], at[row] = ok[0], where[0]
+        if len(rows):
+            onto[rows], at[rows] = self._onto(rows // per, states[rows])
         return onto, at
 
     def onto_run(self, run: int, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """As :meth:`onto`, for ``states`` (n, 5) of run ``run``."""
-        path, first = self.exact[run]
-        tail = path[first:]
-        if len(tail) < 2:
-            return np.zeros(len(states), dtype=bool), np.full(len(states), -1)
-        d2 = (states[:, None, 0] - tail[None, :, 0]) ** 2 + (states[:, None, 1] - tail[None, :, 1]) ** 2
+        return self._onto(np.full(len(states), run), states)
+
+    def _onto(self, runs: np.ndarray, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        paths = self.paths[runs]  # (n, m, 5)
+        d2 = (states[:, None, 0] - paths[:, :, 0]) ** 2 + (states[:, None, 1] - paths[:, :, 1]) ** 2
+        d2 = np.where(self.valid[runs], d2, np.inf)
         j = np.argmin(d2, axis=1)
-        p = tail[j]
+        rows = np.arange(len(states))
+        p = paths[rows, j]
         ok = (
-            (d2[np.arange(len(states)), j] <= HANDOFF_M**2)
+            (d2[rows, j] <= HANDOFF_M**2)
             & (np.abs(wrap_angle(states[:, 2] - p[:, 2])) <= HANDOFF_ANGLE)
             & (np.abs(states[:, 3] - p[:, 3]) <= HANDOFF_ANGLE)
             & (np.abs(states[:, 4] - p[:, 4]) <= self.steer_step)
-            & (j + first < len(path) - 1)  # not the goal itself (that is a landing as any other)
         )
-        return ok, np.where(ok, j + first, -1)
+        return ok, np.where(ok, j, -1)

@@ -120,16 +120,31 @@ class Screen:
     def clear(self, motions: np.ndarray, asked: np.ndarray | None = None) -> np.ndarray:
         """Per motion (n, k + 1, 4): clear by the fast check, or else by the exact swept clearance (samples
         0..k) where the grid does not show a body surely too near; ``asked``: only these (the others False)."""
+        ok, maybe = self.triage(motions, asked)
+        for row in np.flatnonzero(maybe):
+            ok[row] = self.exact(motions[row])
+        return ok
+
+    def triage(self, motions: np.ndarray, asked: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Per motion (n, k + 1, 4): clear by the fast check; and, of the rest, those the grid does not show a body
+        surely too near (:meth:`exact` decides them). A motion padded with its last sample is judged as it is."""
         if asked is None:
             asked = np.ones(len(motions), dtype=bool)
         if motions.shape[1] > 4 * SKIM_EVERY:  # a long motion: first a look at every few samples for a body
             asked = asked & (self.discs.margins(self.grid, motions[:, ::SKIM_EVERY])[1] >= self.clearance)
         sure, most = self.discs.margins(self.grid, motions)
         ok = (sure > self.clearance) & asked
-        maybe = ~ok & (most >= self.clearance) & asked
-        for row in np.flatnonzero(maybe):
-            ok[row] = swept_clearance(self.vehicle, self.scene, motions[row, :, :4])[0] >= self.clearance
-        return ok
+        return ok, ~ok & (most >= self.clearance) & asked
+
+    def blocked(self, states: np.ndarray) -> np.ndarray:
+        """Per configuration (n, 4): a body surely nearer the scene than the clearance (the grid's distance and its
+        error below it at some point); a motion through one is refused by :meth:`clear`."""
+        x, y = self.discs.centres(states[:, None, :4])
+        return (self.grid.lookup(x, y) + self.grid.error).min(axis=(1, 2)) < self.clearance
+
+    def exact(self, motion: np.ndarray) -> bool:
+        """Whether one motion (k + 1, 4) keeps the clearance by the exact swept clearance."""
+        return bool(swept_clearance(self.vehicle, self.scene, motion[:, :4])[0] >= self.clearance)
 
 
 def _segment(a: float, b: float) -> np.ndarray:

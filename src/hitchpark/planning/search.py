@@ -15,7 +15,7 @@ from ..model.collision import MAX_STEP_M, closest, swept_clearance
 from ..model.scene import Scene
 from ..model.state import Pose, State, check_goal, check_state, goal_frame_position, goal_frame_yaw, to_goal_frame
 from ..model.vehicle import VehicleTrailer, check_vehicle
-from .endgame import EndGame, Landing
+from .endgame import EndGame, Landing, TreeLanding
 from .grid import HolonomicHeuristic, Screen, distance_grid
 from .heuristic import CostToGo, trailer_table
 from .motion import PrimitiveBatch
@@ -389,9 +389,9 @@ class _Search:
         if node.direction != -1:  # at standstill: the steer the run asks first (virtual steer 0 as a stand-in)
             steer = float(self._initial_steer(float(node.state[3]))[self.straight_back])
         landings = self.endgame.line_shots(node.state, steer)
-        along_tree: list[Landing] = []
+        along_tree: list[TreeLanding] = []
         if self.tree is not None:
-            along_tree = self.endgame.tree_shots(node.state, steer, self.tree, self.tried)
+            along_tree = self.endgame.tree_shots(node.state, steer, self.tree, self.tried, self.screen)
         if dubins:
             takes, within = None, None
             if self.scene.is_empty:
@@ -401,13 +401,13 @@ class _Search:
                     return not self._too_long(node, landing[0], max_length) and self._fast_clear(node, landing[0])
 
                 within = min((len(landing[0]) for landing in landings if takes(landing)), default=None)
-            landings += self.endgame.dubins_shots(node.state, steer, max_length, takes, within)
-        candidates = [(landing, max_length) for landing in landings]
-        candidates += [(landing, TREE_MAX_M + 2 * NEAR_M) for landing in along_tree]
-        for (world, steers), limit in sorted(candidates, key=lambda candidate: len(candidate[0][0])):
-            if self._too_long(node, world, limit):
-                continue
-            if not self._landing_clear(node, world):
+            screen = None if self.scene.is_empty else self.screen
+            landings += self.endgame.dubins_shots(node.state, steer, max_length, takes, within, screen)
+        # (landing, longest, how many of its first samples to screen: a tree path's keep clear by the tree's making)
+        candidates = [(landing, max_length, len(landing[0])) for landing in landings]
+        candidates += [((world, steers), TREE_MAX_M + 2 * NEAR_M, pursued + 1) for world, steers, pursued in along_tree]
+        for (world, steers), limit, screened in sorted(candidates, key=lambda c: len(c[0][0])):
+            if self._too_long(node, world, limit) or not self._landing_clear(node, world[:screened]):
                 continue
             nodes.append(Node(world[-1], float(steers[-1]), -1, 0.0, index, world, steers))
             if self._confirmed(nodes, len(nodes) - 1):
@@ -426,8 +426,8 @@ class _Search:
 
     def _landing_clear(self, node: Node, world: np.ndarray) -> bool:
         """A landing's samples ``world`` from ``node`` keep clear: by the fast check, or else exactly (among
-        obstacles: the fast check's error, about 0.12 m, is more than a goal at a curb leaves, 0.025 m on
-        curb_parallel; :class:`~.grid.Screen`)."""
+        obstacles: the fast check's error, about 0.12 m, is more than a goal at a curb leaves;
+        :class:`~.grid.Screen`)."""
         if self.scene.is_empty:
             return self._fast_clear(node, world)
         return bool(self.screen.clear(np.vstack([node.state[None, :4], world[:, :4]])[None])[0])
