@@ -163,9 +163,12 @@ def test_cli_sweep_over_a_builtin_scene(tmp_path, capsys):
         assert r["min_clearance_m"] is not None and r["collision"] is False
     data = json.loads(summary.read_text(encoding="utf-8"))
     assert data["scenario"] == "curb_parallel" and data["skipped"] == 0 and data["collisions"] == 0
+    # The scene's goal tree is built (or loaded) once before the cases, its time apart from theirs.
+    assert data["prepare_s"] > 0.0
     assert figure.read_bytes().startswith(b"\x89PNG")
     printed = capsys.readouterr().out
     assert "scenario curb_parallel" in printed and "collisions 0 (starts skipped as they collide: 0)" in printed
+    assert f"the scene's goal tree and rollouts, before the cases: {data['prepare_s']:.2f} s" in printed
 
 
 @pytest.mark.parametrize(

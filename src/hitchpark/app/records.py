@@ -410,7 +410,12 @@ def format_summary(summary: Mapping[str, Any]) -> str:
             + f"; least clearance {_num(summary['min_clearance_m'], '.3f')} m; "
             f"parked without a change of direction {summary['no_switch']}/{n}; "
             f"direction switches: median {_num(switches['median'], '.0f')}, p90 {_num(switches['p90'], '.1f')}",
-            f"planning time [s]: median {_num(planning['median'], '.2f')}, p90 {_num(planning['p90'], '.2f')}",
+            f"planning time [s]: median {_num(planning['median'], '.2f')}, p90 {_num(planning['p90'], '.2f')}"
+            + (
+                f" (the scene's goal tree and rollouts, before the cases: {summary['prepare_s']:.2f} s)"
+                if summary.get("prepare_s") is not None
+                else ""
+            ),
             f"wall clock summed over the cases: {summary['wall_s']:.1f} s",
         ]
     )

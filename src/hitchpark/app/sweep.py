@@ -28,6 +28,7 @@ import numpy as np
 from ..checks import MAX_COORDINATE, MAX_YAW, InputError, check_int
 from ..control.nmpc import FullNMPC, TrailerNMPC, make_nmpc
 from ..io import read_toml
+from ..maneuver.planned import prepare_scene
 from ..maneuver.process import park
 from ..maneuver.result import ManeuverSettings
 from ..maneuver.scenario import Scenario, check_start_clear
@@ -430,8 +431,9 @@ def run_sweep(
     process); it is started only if there is something to run. ``progress`` shows a bar on stderr.
 
     Returns the records of all n cases, old and new, and their summary (:func:`~.records.summarize`,
-    plus the seed, the region, ``skipped``: the starts drawn again as they collide with the scene, and, from
-    a scenario, its name and goal).
+    plus the seed, the region, ``skipped``: the starts drawn again as they collide with the scene, from
+    a scenario its name and goal, and among obstacles ``prepare_s``: the seconds it took to build or load the
+    scene's goal tree and compiled rollouts before the cases, not counted in their planning time).
     """
     out = check_output_file(out, "--out", append=True)  # a FIFO, a link, a device: refused, never read
     starts, skipped = config.draw()
@@ -440,6 +442,12 @@ def run_sweep(
     todo = [CaseTask(config, case, start) for case, start in enumerate(starts) if case not in records]
     executor = make_executor("serial") if executor is None else executor
     t0 = time.perf_counter()
+    prepare_s = None
+    if todo and not config.scene.is_empty:
+        # The scene's goal tree and the compiled rollouts, once, before the cases (each worker then loads them from
+        # the disk cache, before its plans' clocks start): their time is reported apart from the plans'.
+        prepare_scene(config.vehicle, config.goal, config.scene, config.settings)
+        prepare_s = time.perf_counter() - t0
     if todo:
         parked = sum(r.success for r in records.values())
         # The executor starts first: if it cannot (a scheduler out of reach), the file is left as it was.
@@ -464,6 +472,8 @@ def run_sweep(
     summary = {**summarize(ordered), "seed": config.seed, "region": config.region.to_dict(), "skipped": skipped}
     if config.scenario:
         summary.update(scenario=config.scenario, goal=config.goal.to_dict())
+    if prepare_s is not None:
+        summary["prepare_s"] = prepare_s
     return SweepOutcome(
         records=ordered,
         summary=summary,

@@ -1,5 +1,6 @@
 """The parking maneuver: the closed loop (plant, stages, outcome), its result, and scenarios."""
 
+from .planned import prepare_scene
 from .process import park
 from .result import MANEUVER_COLUMNS, ManeuverResult, Outcome, PlanRecord, StageResult
 from .scenario import Scenario, builtin_scenarios, load_scenario
@@ -22,4 +23,5 @@ __all__ = [
     "load_scenario",
     "make_stages",
     "park",
+    "prepare_scene",
 ]

@@ -36,7 +36,7 @@ from ..model.plant import Measurement
 from ..model.scene import Scene
 from ..model.state import Pose, from_goal_frame, to_goal_frame
 from ..model.vehicle import VehicleTrailer
-from ..planning import Plan, plan
+from ..planning import Plan, PlannerSettings, plan, prepare
 from .result import Outcome
 from .settings import ManeuverSettings
 from .stages import (
@@ -50,7 +50,14 @@ from .stages import (
     make_stages,
 )
 
-__all__ = ["ON_LINE_ANGLE", "ON_LINE_M", "PlannedProcess", "straight_approach"]
+__all__ = [
+    "ON_LINE_ANGLE",
+    "ON_LINE_M",
+    "PlannedProcess",
+    "planner_settings",
+    "prepare_scene",
+    "straight_approach",
+]
 
 #: A correction (the NMPC ended unparked near the goal) pulls forward to this far beyond ``handover_m`` [m]
 #: when pure pursuit tracks the approach; to ``handover_m`` when the NMPC does (measured over 100 starts:
@@ -73,6 +80,23 @@ def straight_approach(goal: Pose, length: float, step: float) -> np.ndarray:
     return np.column_stack([x, y, yaw, np.zeros_like(s)])
 
 
+def planner_settings(settings: ManeuverSettings) -> PlannerSettings:
+    """The planner's settings in the planned process: its paths keep ``success.min_clearance_m +
+    process.plan_margin_m`` (or the planner's own, if more). A start nearer the scene than that is planned from
+    keeping its own clearance, down to where the guard stops the car (the sweep's starts keep
+    ``start_clearance_m``, a little more)."""
+    clearance = max(settings.planner.min_clearance_m, settings.success.min_clearance_m + settings.process.plan_margin_m)
+    slack = max(0.0, clearance - settings.guard_clearance_m)
+    return replace(settings.planner, min_clearance_m=clearance, start_slack_m=slack)
+
+
+def prepare_scene(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: ManeuverSettings) -> None:
+    """Build (or load) what the planned process's plans to ``goal`` among ``scene`` use before their clocks start:
+    the goal tree and the compiled rollouts (:func:`~hitchpark.planning.prepare`); nothing in open space."""
+    if not scene.is_empty:
+        prepare(vehicle, goal, scene, planner_settings(settings))
+
+
 class PlannedProcess:
     """See the module text. ``plans`` holds every plan made, in order (their times add up to the planning time)."""
 
@@ -85,12 +109,7 @@ class PlannedProcess:
         delay: int,
     ):
         self.vehicle, self.settings, self.scene, self.nmpc = vehicle, settings, scene, nmpc
-        clearance = settings.success.min_clearance_m + settings.process.plan_margin_m
-        clearance = max(settings.planner.min_clearance_m, clearance)
-        # A start nearer the scene than that is planned from keeping its own clearance, down to where the guard
-        # stops the car (the sweep's starts keep settings.start_clearance_m, a little more).
-        slack = max(0.0, clearance - settings.guard_clearance_m)
-        self.planner = replace(settings.planner, min_clearance_m=clearance, start_slack_m=slack)
+        self.planner = planner_settings(settings)
         self.tracking = settings.tracking
         self.guard = None
         if not scene.is_empty:
