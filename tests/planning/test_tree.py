@@ -60,10 +60,11 @@ def test_every_tree_path_is_a_reverse_run_into_the_goal_that_keeps_clear(drivewa
 
 def test_a_tree_shot_that_comes_onto_its_tree_path_is_handed_off_to_it(driveway):
     """A run started off a tree node's path comes onto it and is handed off: from there on the landing is the
-    tree's path sample for sample (exact to the goal, not pursued), and where the two meet they agree within
-    the hand-off's tolerances."""
+    tree's path sample for sample (exact to the goal, not pursued), where the two meet they agree within the
+    hand-off's tolerances, and the steer keeps its rate limit across the join."""
     sc, grown = driveway
     game = endgame.EndGame(sc.vehicle, sc.goal, _settings(sc))
+    step = sc.vehicle.max_steer_rate * sc.settings.planner.sample_step_m  # the steer's change in a sample at 1 m/s
     far = np.flatnonzero((grown.cost > 15.0) & (np.abs(grown.states[:, 3]) < 0.05))
     handed = 0
     for node in far[:: max(1, len(far) // 12)][:12]:
@@ -73,16 +74,40 @@ def test_a_tree_shot_that_comes_onto_its_tree_path_is_handed_off_to_it(driveway)
             if pursued == len(world):
                 continue  # landed in the tolerance by pursuit alone
             handed += 1
-            np.testing.assert_array_equal(world[-1], [sc.goal.x, sc.goal.y, sc.goal.yaw, 0.0])
+            np.testing.assert_allclose(world[-1], [sc.goal.x, sc.goal.y, sc.goal.yaw, 0.0], atol=1e-9)
             # The rest is the path of one of the near nodes, from the sample after the one the run came onto.
             rest = np.column_stack([world[pursued:], steers[pursued:]])
-            paths = [grown.path(int(other)) for other in grown.near(start, 6)]
-            path = next(p for p in paths if len(p) > len(rest) and np.array_equal(p[-len(rest) :], rest))
-            onto = path[-len(rest) - 1]
+            matches = [
+                p
+                for p in (grown.path(int(other)) for other in grown.near(start, 6))
+                if len(p) > len(rest) and np.allclose(p[-len(rest) :], rest, atol=1e-9)
+            ]
+            assert matches, "a handed-off landing ends in none of the near nodes' paths"
+            onto = matches[0][-len(rest) - 1]
             assert np.hypot(*(world[pursued - 1, :2] - onto[:2])) <= endgame.HANDOFF_M + 1e-12
             assert abs(world[pursued - 1, 2] - onto[2]) <= endgame.HANDOFF_ANGLE + 1e-12
             assert abs(world[pursued - 1, 3] - onto[3]) <= endgame.HANDOFF_ANGLE + 1e-12
+            assert np.all(np.abs(np.diff(steers[pursued - 1 :])) <= step * (1 + 1e-9))
     assert handed >= 3
+
+
+def test_a_tree_path_arrives_with_the_steer_of_its_last_sample(driveway):
+    """The first motion out of the goal is steered at standstill: read backwards, the run arrives with its wheels
+    turned, and the goal's row says so (no jump in the last sample)."""
+    sc, grown = driveway
+    samples = np.zeros((2, 3, 5))
+    samples[1, :, 0] = [0.1, 0.2, 0.3]  # driven forward out of the goal
+    samples[1, :, 4] = 0.3  # held
+    arrays = {
+        "states": np.array([[0.0, 0.0, 0.0, 0.0, 0.0], samples[1, -1]]),
+        "parent": np.array([-1, 0]),
+        "cost": np.array([0.0, 0.3]),
+        "samples": samples,
+    }
+    small = tree.GoalTree(sc.vehicle, sc.goal, sc.scene, grown.settings, (0.0, 0.0, 1.0, 1.0), arrays)
+    path = small.path(1)
+    np.testing.assert_array_equal(path[:, 0], [0.3, 0.2, 0.1, 0.0])
+    np.testing.assert_array_equal(path[:, 4], [0.3, 0.3, 0.3, 0.3])
 
 
 def test_the_tree_is_cached_on_disk_and_read_back_the_same(driveway, tmp_path, monkeypatch):

@@ -1,6 +1,6 @@
 """The planner's end-games: single reverse runs from a configuration into the goal tolerance.
 
-Two kinds, both the trailer axle driven backwards by pure pursuit of its virtual steer (Eq. 42), the
+Three kinds, all the trailer axle driven backwards by pure pursuit of its virtual steer (Eq. 42), the
 front steer from Eq. (45), rate-limited (:mod:`~hitchpark.planning.motion`):
 
 - **Goal-line shots**: the axle pursues the goal line y = 0 (goal frame) with a few look-aheads. Cheap
@@ -10,9 +10,13 @@ front steer from Eq. (45), rate-limited (:mod:`~hitchpark.planning.motion`):
   least radius ``L_T / tan(virtual_limit)`` (Eq. 42), so that pure pursuit, the hitch's transient and the
   steer-rate ramp fit in the margin. They land from almost anywhere in open space with a single
   reverse run that bends; tried from the start before searching and from some expanded nodes.
+- **Tree shots**: among obstacles, the axle pursues the paths of the nearest nodes of the scene's goal tree
+  (:mod:`~hitchpark.planning.tree`), and a run that comes onto its path is handed off to it there, the rest
+  of the landing the tree's own path, exact to the goal.
 
-A run counts when a sample reaches the goal tolerance with the hitch within ``max_hitch - hitch_margin``
-at every sample before it; the caller screens collisions and confirms the swept clearance.
+A run counts when a sample reaches the goal tolerance (or, a tree shot, its tree path) with the hitch
+within ``max_hitch - hitch_margin`` at every sample before it; the caller screens collisions and confirms
+the swept clearance.
 """
 
 from __future__ import annotations
@@ -176,7 +180,7 @@ class EndGame:
         for node in near:
             path = tree.path(int(node))
             px, py, pyaw = to_goal_frame(self.goal, path[:, 0], path[:, 1], path[:, 2])
-            tree_path = np.column_stack([px, py, pyaw, path[:, 3], path[:, 4]])
+            tree_path = np.column_stack([px, py, np.unwrap(pyaw), path[:, 3], path[:, 4]])
             # The node's path moved to start where the run starts, the offset taken out over its first
             # TREE_BLEND_M (a smoothstep): the pursuit starts on its reference instead of catching it up.
             along = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(px), np.diff(py)))])
@@ -214,8 +218,10 @@ class EndGame:
                 last -= 1
             onto, at = handoff.onto_run(r, run[last][None, :])
             if last > 0 and onto[0]:
-                tree_path, _ = exact[r]
-                part, pursued = np.vstack([run[1 : last + 1], tree_path[int(at[0]) + 1 :]]), last
+                rest = exact[r][0][int(at[0]) + 1 :].copy()
+                turns = np.round((run[last, 2] - rest[0, 2]) / (2 * math.pi))
+                rest[:, 2] += 2 * math.pi * turns  # the tree's heading on the run's branch: one continuous yaw
+                part, pursued = np.vstack([run[1 : last + 1], rest]), last
             else:
                 hits = self.at_goal(run[1 : last + 1])
                 if not hits.any():
@@ -383,11 +389,11 @@ class _HandOff:
         d2 = np.where(self.valid[runs], d2, np.inf)
         j = np.argmin(d2, axis=1)
         rows = np.arange(len(states))
-        p = paths[rows, j]
+        p, after = paths[rows, j], paths[rows, j + 1]  # the sample the run is on, and the landing's next
         ok = (
             (d2[rows, j] <= HANDOFF_M**2)
             & (np.abs(wrap_angle(states[:, 2] - p[:, 2])) <= HANDOFF_ANGLE)
             & (np.abs(states[:, 3] - p[:, 3]) <= HANDOFF_ANGLE)
-            & (np.abs(states[:, 4] - p[:, 4]) <= self.steer_step)
+            & (np.abs(states[:, 4] - after[:, 4]) <= self.steer_step)
         )
         return ok, np.where(ok, j, -1)

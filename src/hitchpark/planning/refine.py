@@ -66,9 +66,9 @@ REFINE_PLANES = 2
 
 #: The refined path's nodes keep ``min_clearance_m`` and half CHECK_STEP_M more (the NLP's constraints);
 #: its exact swept clearance is then checked in sub-steps of CHECK_STEP_M [m], a bound low by at most
-#: half of that, which is allowed for. (At the 0.05 m of the search's check, curb_parallel's path along
-#: the lines 0.3 m from the curb and the cars is bounded at 0.275 m; its goal keeps 0.325 m, and lines
-#: at 0.31 m leave no path to it.)
+#: half of that, which is allowed for. (At the 0.05 m of the search's check, a path along lines 0.3 m from a
+#: curb is bounded at 0.275 m: curb_parallel's goal, when it kept 0.325 m from the curb, had lines at 0.31 m
+#: leave no path to it.)
 CHECK_STEP_M = 0.01
 
 #: The first guess closes the gap between the searched run's end and the goal over this much of its

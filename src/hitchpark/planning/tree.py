@@ -208,13 +208,18 @@ class GoalTree:
 
     def path(self, node: int) -> np.ndarray:
         """The reverse run from ``node`` into the goal: (x, y, yaw, hitch, steer) rows, the node's state first and
-        the goal's last, :attr:`settings`' sample step apart (the tree's motions read backwards)."""
+        the goal's last, :attr:`settings`' sample step apart (the tree's motions read backwards). The run arrives
+        with the steer it drove the last sample with (the first motion out of the goal was steered at
+        standstill): the goal's row carries that steer, not the root's."""
         parts = []
         i = node
         while i > 0:
             parts.append(self.samples[i][::-1])
             i = int(self.parent[i])
-        parts.append(self.states[:1])
+        goal = self.states[:1].copy()
+        if len(parts):
+            goal[0, 4] = parts[-1][-1, 4]
+        parts.append(goal)
         return np.vstack(parts)
 
 
