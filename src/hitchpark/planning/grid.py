@@ -167,6 +167,7 @@ class DistanceGrid:
     def __init__(self, scene: Scene, bounds: tuple[float, float, float, float], cell: float):
         xmin, ymin, xmax, ymax = bounds
         self.cell = cell
+        self._bordered: np.ndarray | None = None
         self.origin = np.array([xmin, ymin])
         self.shape = (max(1, math.ceil((xmax - xmin) / cell)), max(1, math.ceil((ymax - ymin) / cell)))
         self.error = cell * math.sqrt(2.0)  # the grid's distance exceeds the true one by at most this
@@ -192,12 +193,15 @@ class DistanceGrid:
 
     def lookup(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Grid distance at world points; ``-inf`` outside the grid (out of bounds counts as blocked)."""
-        i = np.floor((x - self.origin[0]) / self.cell).astype(np.int64)
-        j = np.floor((y - self.origin[1]) / self.cell).astype(np.int64)
-        inside = (i >= 0) & (i < self.shape[0]) & (j >= 0) & (j < self.shape[1])
-        out = np.full(np.shape(x), -np.inf)
-        out[inside] = self.distance[i[inside], j[inside]]
-        return out
+        if self._bordered is None:  # the grid in a frame of -inf: a point off it reads the frame, no mask needed
+            self._bordered = np.pad(np.asarray(self.distance, dtype=float), 1, constant_values=-np.inf)
+        nx, ny = self.shape
+        i = np.floor((x - self.origin[0]) / self.cell)
+        j = np.floor((y - self.origin[1]) / self.cell)
+        # Off the grid by any amount (or not a number): the frame.
+        i = np.where((i >= 0) & (i < nx), i + 1, 0).astype(np.intp)
+        j = np.where((j >= 0) & (j < ny), j + 1, 0).astype(np.intp)
+        return self._bordered[i, j]
 
 
 @functools.lru_cache(maxsize=8)
