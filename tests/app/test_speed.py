@@ -164,7 +164,10 @@ def test_a_timed_job_stops_once_its_budget_is_spent_while_the_others_go_on():
         rounds=4,
     )
     slow_wall, _, slow_answers, _ = timed["slow"]
-    assert 5 <= len(slow_wall) < 10  # stopped after the call that went past 10 ms, within the first round
+    # Stopped after the call that took the job past its 10 ms: each call sleeps 2 ms or more (longer on a busy
+    # machine), so that is within the first round of 10 problems, whatever the machine's load.
+    assert 1 <= len(slow_wall) <= 6
+    assert sum(slow_wall[:-1]) <= 10.0 + 1e-9 < sum(slow_wall)
     assert [float(x[0]) for x in slow_answers] == [p.value for p in problems[: len(slow_answers)]]
     assert len(timed["fast"][0]) == len(problems)
 
