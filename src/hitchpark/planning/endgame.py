@@ -200,7 +200,7 @@ class EndGame:
         while len(references) < self.pursuit.runs:  # fewer references than runs: repeat the last
             references.append(references[-1])
             exact.append(exact[-1])
-        handoff = _HandOff(exact, self.settings, self.rate_step)
+        handoff = _HandOff(exact, self.rate_step)
         start = np.array([gx, gy, gyaw, state[3], steer])
 
         stopped = self._stopped(screen)
@@ -358,7 +358,7 @@ class _HandOff:
     path (goal frame, (m, 5)) and the first sample a run may be handed to (past the blend, and past every sample
     whose virtual steer is beyond the runs')."""
 
-    def __init__(self, exact: list[tuple[np.ndarray, int]], settings: PlannerSettings, steer_step: float):
+    def __init__(self, exact: list[tuple[np.ndarray, int]], steer_step: float):
         self.exact, self.steer_step = exact, steer_step
         longest = max(len(path) for path, _ in exact)
         # Every run's path padded to one length, and the samples a run may be handed to (not the goal itself:
