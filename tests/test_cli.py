@@ -152,6 +152,8 @@ BAD_INPUTS = {
     "text wheelbase": (lambda p: ["--wheelbase", "abc"], "wheelbase"),
     "negative hitch offset": (lambda p: ["--hitch-offset", "-1"], "hitch_offset"),
     "zero trailer length": (lambda p: ["--trailer-length", "0"], "trailer_length"),
+    "length tolerance past a half": (lambda p: ["--length-tolerance", "0.8"], "length_tolerance"),
+    "negative length tolerance": (lambda p: ["--length-tolerance", "-0.1"], "length_tolerance"),
     "NaN in start": (lambda p: ["--start", "0,nan,0,0"], "start"),
     "inf in start": (lambda p: ["--start", "inf,0,0,0"], "start"),
     "start with 3 numbers": (lambda p: ["--start", "1,2,3"], "start"),

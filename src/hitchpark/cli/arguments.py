@@ -17,7 +17,7 @@ from ..model.vehicle import VehicleTrailer, load_vehicle, vehicle_from_dict
 if TYPE_CHECKING:
     from ..maneuver.scenario import Scenario
 
-_VEHICLE_OVERRIDES = ("wheelbase", "hitch_offset", "trailer_length")
+_VEHICLE_OVERRIDES = ("wheelbase", "hitch_offset", "trailer_length", "length_tolerance")
 
 EXIT_BAD_INPUT = 2
 
@@ -79,6 +79,13 @@ def _add_vehicle_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--hitch-offset", type=float, metavar="M", help="L_H, rear axle to hitch [m]; overrides the file")
     g.add_argument(
         "--trailer-length", type=float, metavar="M", help="L_T, hitch to trailer axle [m]; overrides the file"
+    )
+    g.add_argument(
+        "--length-tolerance",
+        type=float,
+        metavar="F",
+        help="how far the real L_H and L_T may be from these, a fraction in [0, 0.5]: the planner and the guard "
+        "keep their clearance for all of them (default 0); overrides the file",
     )
 
 

@@ -101,10 +101,14 @@ def body_shapes(vehicle: VehicleTrailer, state: Any) -> dict[str, shapely.Geomet
 
     ``"vehicle"`` and ``"trailer"``: Shapely polygons; ``"drawbar"`` and ``"tow_bar"``: line strings
     (the tow bar only when it has a length, i.e. the hitch lies behind the vehicle body). From
-    :func:`~.geometry.body_outlines`.
+    :func:`~.geometry.body_outlines`; with a ``length_tolerance``, each over the lengths' range (convex hulls,
+    the drawbar a line string still).
     """
     x, y, yaw, hitch = _config(state)
-    outlines = body_outlines(check_vehicle(vehicle), x, y, yaw, hitch)
+    if check_vehicle(vehicle).length_tolerance > 0.0:  # the bodies over the lengths' range
+        names = body_corners(vehicle, x, y, yaw, hitch)
+        return dict(zip(names, _body_geometries(vehicle, np.array([[x, y, yaw, hitch]]))[0], strict=True))
+    outlines = body_outlines(vehicle, x, y, yaw, hitch)
     shapes: dict[str, shapely.Geometry] = {
         "vehicle": shapely.Polygon(outlines["vehicle"]),
         "trailer": shapely.Polygon(outlines["trailer"]),
@@ -238,10 +242,11 @@ def _nearest_points(a: shapely.Geometry, b: shapely.Geometry) -> np.ndarray:
 
 
 def _reaches(vehicle: VehicleTrailer) -> tuple[float, float]:
-    """Largest distance of a trailer point from the trailer axle, of a vehicle point from the hitch [m]."""
-    v = vehicle
-    trailer = max(math.hypot(max(v.trailer_rear, v.trailer_front), v.trailer_width / 2), v.trailer_length)
-    car = math.hypot(v.hitch_offset + v.wheelbase + v.front_overhang, v.vehicle_width / 2)
+    """Largest distance of a trailer point from the trailer axle, of a vehicle point from the hitch [m] (with the
+    lengths at the top of their tolerance)."""
+    v, grow = vehicle, 1.0 + vehicle.length_tolerance
+    trailer = max(math.hypot(max(v.trailer_rear, v.trailer_front), v.trailer_width / 2), grow * v.trailer_length)
+    car = math.hypot(grow * v.hitch_offset + v.wheelbase + v.front_overhang, v.vehicle_width / 2)
     return trailer, car
 
 
@@ -257,7 +262,8 @@ def _subsamples(
     reach_t, reach_v = _reaches(vehicle)
     shift = np.hypot(delta[:, 0], delta[:, 1])
     turn_t, turn_v = np.abs(delta[:, 2]), np.abs(delta[:, 2] + delta[:, 3])
-    moves = shift + np.maximum(turn_t * reach_t, turn_t * vehicle.trailer_length + turn_v * reach_v)
+    hitch_reach = (1.0 + vehicle.length_tolerance) * vehicle.trailer_length
+    moves = shift + np.maximum(turn_t * reach_t, turn_t * hitch_reach + turn_v * reach_v)
     counts = np.maximum(1, np.ceil(moves / max_step_m)).astype(np.int64)
     total = int(counts.sum()) + 1
     if total > MAX_SUBSAMPLES:
@@ -345,12 +351,48 @@ class SceneChecker:
 
 
 def _body_geometries(vehicle: VehicleTrailer, configs: np.ndarray) -> np.ndarray:
-    """The bodies of :func:`body_shapes` for many configurations at once: an (m, b) array of geometries."""
-    corners = body_corners(vehicle, *np.asarray(configs, dtype=float).T)
+    """The bodies of :func:`body_shapes` for many configurations at once: an (m, b) array of geometries.
+
+    With a ``length_tolerance`` f > 0, each body is the region it covers for every hitch offset and trailer
+    length within the fraction f of the vehicle's (both scaled by one factor in [1 - f, 1 + f]): at a
+    configuration the lengths only translate the vehicle body along ``dL_T e_t + dL_H e_v`` (``e_t``,
+    ``e_v`` the trailer's and the vehicle's heading, Eqs. (25)-(28)) and the hitch along ``dL_T e_t``;
+    a convex body translated along a segment covers the convex hull of its two ends, exactly.
+    """
+    configs = np.asarray(configs, dtype=float).reshape(-1, 4)
+    corners = body_corners(vehicle, *configs.T)
+    f = vehicle.length_tolerance
+    hitch, body = _length_shifts(vehicle, configs, f) if f > 0.0 else (None, None)
     columns = []
-    for points in corners.values():
+    for name, points in corners.items():
         xy = np.stack([np.stack(p, -1) for p in points], 1)  # (m, corners, 2)
-        columns.append(
-            shapely.polygons(np.concatenate([xy, xy[:, :1]], 1)) if len(points) > 2 else shapely.linestrings(xy)
-        )
+        if hitch is None or body is None or name == "trailer":
+            closed = len(points) > 2
+            columns.append(shapely.polygons(np.concatenate([xy, xy[:, :1]], 1)) if closed else shapely.linestrings(xy))
+        elif name == "drawbar":  # along the trailer's axis, from its body's front to the farthest hitch
+            columns.append(shapely.linestrings(np.stack([xy[:, 0], xy[:, 1] + hitch], 1)))
+        else:  # the vehicle, the tow bar: convex hulls of their corners at both ends of the range
+            low = max(-1.0, (vehicle.rear_overhang / vehicle.hitch_offset - 1.0) / f)  # the tow bar's shortest
+            xy = _tolerant(name, xy, hitch, body, low)
+            m, k = xy.shape[:2]
+            columns.append(
+                shapely.convex_hull(shapely.multipoints(xy.reshape(-1, 2), indices=np.repeat(np.arange(m), k)))
+            )
     return np.stack(columns, axis=1)
+
+
+def _length_shifts(vehicle: VehicleTrailer, configs: np.ndarray, fraction: float) -> tuple[np.ndarray, np.ndarray]:
+    """How far (m, 2) the hitch and the vehicle move when L_H and L_T grow by ``fraction`` of theirs."""
+    yaw_t, yaw_v = configs[:, 2], configs[:, 2] + configs[:, 3]
+    hitch = fraction * vehicle.trailer_length * np.column_stack([np.cos(yaw_t), np.sin(yaw_t)])
+    body = hitch + fraction * vehicle.hitch_offset * np.column_stack([np.cos(yaw_v), np.sin(yaw_v)])
+    return hitch, body
+
+
+def _tolerant(name: str, xy: np.ndarray, hitch: np.ndarray, body: np.ndarray, low: float = -1.0) -> np.ndarray:
+    """The points (m, k', 2) whose hull is body ``name`` (corners ``xy``) over the lengths' range; the tow bar's
+    from ``low`` times the shifts (where it still sticks out: shorter, it lies within the vehicle's body)."""
+    if name == "vehicle":
+        return np.concatenate([xy - body[:, None], xy + body[:, None]], 1)
+    # the tow bar: the vehicle's rear moves with the vehicle, the hitch with the hitch
+    return np.stack([xy[:, 0] + low * body, xy[:, 0] + body, xy[:, 1] + low * hitch, xy[:, 1] + hitch], 1)

@@ -25,7 +25,7 @@ import functools
 import math
 from collections import deque
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -94,8 +94,10 @@ class PlantSettings:
         object.__setattr__(self, "vehicle", dict(self.vehicle))
 
     def resolve_vehicle(self, model: VehicleTrailer) -> VehicleTrailer:
-        """The real vehicle: the controller's ``model`` with this plant's vehicle fields on top."""
-        return vehicle_from_dict(dict(self.vehicle), model) if self.vehicle else model
+        """The real vehicle: the controller's ``model`` with this plant's vehicle fields on top, its lengths exact
+        (``length_tolerance`` 0: the tolerance is the controller's doubt, not the car's)."""
+        real = vehicle_from_dict(dict(self.vehicle), model) if self.vehicle else model
+        return replace(real, length_tolerance=0.0) if real.length_tolerance else real
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -62,6 +62,12 @@ class VehicleTrailer:
         (34 deg/s): electric power steering in parking assists turns the road wheels at 30-40 deg/s.
     max_accel : float
         Longitudinal acceleration the controllers may command [m/s^2], in (0, 10]. Default 1 m/s^2.
+    length_tolerance : float
+        How far the real L_H and L_T may be from these, as a fraction of them, in [0, 0.5]: the
+        collision checks (the planner's and the guard's) keep their clearance for every hitch offset and
+        trailer length within it (both scaled by one factor in [1 - f, 1 + f]). A trailer's length
+        measured by its owner is good to some centimetres; 0.1 is 27 cm of Table 4's trailer. Default 0:
+        the lengths are exact. A plant's real vehicle has 0.
     """
 
     wheelbase: float = checked(2.896, Real(0.0, MAX_WHEELBASE, low_open=True, unit="m"))
@@ -77,6 +83,7 @@ class VehicleTrailer:
     trailer_width: float = checked(1.8, _WIDTH)
     max_steer_rate: float = checked(0.6, Real(0.0, 10.0, low_open=True, unit="rad/s"))
     max_accel: float = checked(1.0, Real(0.0, 10.0, low_open=True, unit="m/s^2"))
+    length_tolerance: float = checked(0.0, Real(0.0, 0.5, unit="(a fraction of L_H and L_T)"))
 
     def __post_init__(self) -> None:
         check_fields(self)

@@ -50,26 +50,50 @@ class Discs:
     """
 
     def __init__(self, vehicle: VehicleTrailer):
-        v = vehicle
+        v, f = vehicle, vehicle.length_tolerance
+        grow = 1.0 + f
         tx, ty = _outline(-v.trailer_rear, v.trailer_front, v.trailer_width / 2)
-        dx = _segment(v.trailer_front, v.trailer_length)
+        dx = _segment(v.trailer_front, grow * v.trailer_length)
         vx, vy = _outline(-v.rear_overhang, v.wheelbase + v.front_overhang, v.vehicle_width / 2)
-        bx = _segment(-v.hitch_offset, -v.rear_overhang) if v.hitch_offset > v.rear_overhang else np.zeros(0)
+        tow = v.hitch_offset > v.rear_overhang
+        bx = _segment(-v.hitch_offset, -v.rear_overhang) if tow else np.zeros(0)
         self.trailer_x, self.trailer_y = np.concatenate([tx, dx]), np.concatenate([ty, np.zeros(len(dx))])
         self.vehicle_x, self.vehicle_y = np.concatenate([vx, bx]), np.concatenate([vy, np.zeros(len(bx))])
+        # With a length tolerance f, the vehicle's points stand at scales g of L_H and L_T (the rear axle at
+        # the hitch g L_T ahead of the trailer axle, g L_H ahead of the hitch): its outline at 1 - f and
+        # 1 + f, its corners and tow bar at scales whose shifts are at most POINT_SPACING apart, so the
+        # points cover the outline of the body over the lengths' range (the hull of its two ends).
+        self.scale: np.ndarray | None = None
+        if f > 0.0:
+            n = 1 + math.ceil(2.0 * f * (v.trailer_length + v.hitch_offset) / POINT_SPACING)
+            scales = np.linspace(1.0 - f, 1.0 + f, n + 1)
+            corners_x = np.array([-v.rear_overhang, v.wheelbase + v.front_overhang] * 2)
+            corners_y = np.repeat([-v.vehicle_width / 2, v.vehicle_width / 2], 2)
+            xs, ys, gs = [vx, vx], [vy, vy], [np.full(len(vx), 1.0 - f), np.full(len(vx), 1.0 + f)]
+            for g in scales:  # (shorter than the rear overhang, the tow bar lies within the vehicle's body)
+                sticks_out = tow and g * v.hitch_offset > v.rear_overhang
+                bar = _segment(-g * v.hitch_offset, -v.rear_overhang) if sticks_out else np.zeros(0)
+                xs += [corners_x, bar]
+                ys += [corners_y, np.zeros(len(bar))]
+                gs += [np.full(4 + len(bar), g)]
+            self.vehicle_x, self.vehicle_y, self.scale = np.concatenate(xs), np.concatenate(ys), np.concatenate(gs)
         self.radius = np.full(len(self.trailer_x) + len(self.vehicle_x), POINT_SPACING / 2)
         self.vehicle = vehicle
-        # Largest distance of a body point from the trailer axle / from the hitch (movement bound).
-        self.reach_trailer = max(
-            math.hypot(max(v.trailer_rear, v.trailer_front), v.trailer_width / 2), v.trailer_length
-        )
-        self.reach_vehicle = math.hypot(v.hitch_offset + v.wheelbase + v.front_overhang, v.vehicle_width / 2)
+        # Largest distance of a body point from the trailer axle / from the hitch (movement bound), and of the
+        # hitch from the trailer axle, the lengths at the top of their range.
+        self.reach_hitch = grow * v.trailer_length
+        body = math.hypot(max(v.trailer_rear, v.trailer_front), v.trailer_width / 2)
+        self.reach_trailer = max(body, self.reach_hitch)
+        self.reach_vehicle = math.hypot(grow * v.hitch_offset + v.wheelbase + v.front_overhang, v.vehicle_width / 2)
 
     def centres(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World x, y of every point at ``states`` (..., 4): arrays of shape (..., points)."""
         x, y, yaw, hitch = states[..., 0:1], states[..., 1:2], states[..., 2:3], states[..., 3:4]
         c, s = np.cos(yaw), np.sin(yaw)
-        L_T, L_H = self.vehicle.trailer_length, self.vehicle.hitch_offset
+        L_T: float | np.ndarray = self.vehicle.trailer_length
+        L_H: float | np.ndarray = self.vehicle.hitch_offset
+        if self.scale is not None:  # each point's own lengths
+            L_T, L_H = L_T * self.scale, L_H * self.scale
         xt, yt = x + c * self.trailer_x - s * self.trailer_y, y + s * self.trailer_x + c * self.trailer_y
         yaw_v = yaw + hitch
         cv, sv = np.cos(yaw_v), np.sin(yaw_v)
@@ -95,8 +119,7 @@ class Discs:
         delta = np.diff(states, axis=-2)
         shift = np.hypot(delta[..., 0], delta[..., 1])
         turn_t, turn_v = np.abs(delta[..., 2]), np.abs(delta[..., 2] + delta[..., 3])
-        L_T = self.vehicle.trailer_length
-        return shift + np.maximum(turn_t * self.reach_trailer, turn_t * L_T + turn_v * self.reach_vehicle)
+        return shift + np.maximum(turn_t * self.reach_trailer, turn_t * self.reach_hitch + turn_v * self.reach_vehicle)
 
 
 #: :meth:`Screen.clear` looks at every this many samples of a long motion first: a body surely too near there
