@@ -143,3 +143,22 @@ def test_the_campsite_scene_parks_clear_of_the_trees():
     assert r.success, r.detail
     assert not r.collision and r.min_clearance_m >= sc.settings.success.min_clearance_m
     assert r.plans and r.plans[-1].status == "found"
+
+
+def test_a_guard_stop_before_the_nmpc_moves_plans_again_where_a_solver_failure_ends():
+    """The guard stopping the NMPC at its first step (its prediction too near the scene) is a reason to plan from
+    where the car stands, as any guard stop; the NMPC failing to solve there ends the maneuver."""
+    from hitchpark.maneuver.planned import PlannedProcess
+    from hitchpark.maneuver.result import Outcome
+    from hitchpark.maneuver.stages import Ending, StageEnd
+
+    settings = ManeuverSettings()
+    post = Obstacle("post", ((30.0, 20.0), (30.5, 20.0), (30.5, 20.5), (30.0, 20.5)))
+    process = PlannedProcess(V, settings, Scene((post,)), make_nmpc(V, settings.nmpc), 0)
+    m, goal = Measurement(0.0, State(10.0, 3.0, 0.3, 0.0), 0.0, 0.0), Pose()
+    assert not isinstance(process.first(m, goal), Ending) and process.rounds == 1
+    guarded = StageEnd("reverse", "nmpc", "guard: too close", failed=True, status="guard: too close: 0.2 m ahead")
+    assert not isinstance(process.next(m, goal, guarded), Ending) and process.rounds == 2
+    failed = StageEnd("reverse", "nmpc", "solver: infeasible", failed=True, status="Infeasible_Problem_Detected")
+    ended = process.next(m, goal, failed)
+    assert isinstance(ended, Ending) and ended.outcome is Outcome.SOLVER

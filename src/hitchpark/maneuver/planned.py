@@ -84,10 +84,15 @@ def planner_settings(settings: ManeuverSettings) -> PlannerSettings:
     """The planner's settings in the planned process: its paths keep ``success.min_clearance_m +
     process.plan_margin_m`` (or the planner's own, if more). A start nearer the scene than that is planned from
     keeping its own clearance, down to where the guard stops the car (the sweep's starts keep
-    ``start_clearance_m``, a little more)."""
+    ``start_clearance_m``, a little more). Its forward runs keep within the tracker's steer cap."""
     clearance = max(settings.planner.min_clearance_m, settings.success.min_clearance_m + settings.process.plan_margin_m)
     slack = max(0.0, clearance - settings.guard_clearance_m)
-    return replace(settings.planner, min_clearance_m=clearance, start_slack_m=slack)
+    return replace(
+        settings.planner,
+        min_clearance_m=clearance,
+        start_slack_m=slack,
+        forward_length_tolerance=settings.tracking.length_tolerance,
+    )
 
 
 def prepare_scene(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: ManeuverSettings) -> None:
@@ -137,7 +142,7 @@ class PlannedProcess:
     def next(self, measurement: Measurement, goal: Pose, ended: StageEnd) -> Stage | Ending:
         if self.fallback is not None:
             return self.fallback.next(measurement, goal, ended)
-        if ended.failed and ended.controller == "nmpc" and ended.step == 0:
+        if ended.failed and ended.controller == "nmpc" and ended.step == 0 and not ended.status.startswith("guard:"):
             return Ending(Outcome.SOLVER, ended.status)  # the NMPC cannot even start: stop, as the staged process does
         if not ended.failed and self.queue:
             return self.queue.popleft()

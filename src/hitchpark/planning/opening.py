@@ -38,6 +38,12 @@ OPENING_TRIES = 4
 #: ... of those that end with the hitch within this [rad] (a reverse run from a larger one folds it).
 OPENING_MAX_HITCH = math.radians(20.0)
 
+#: The opening among obstacles, when none of that lands: the most nodes its search of forward primitives
+#: towards the goal tree expands.
+OPENING_FORWARD_NODES = 300
+
+OPENING_TREE_WEIGHT = 2.5
+
 
 def opening(search: _Search, nodes: list[Node], h_start: float) -> int | None:
     """Before searching: a single reverse run from the start, or forward and then one (:mod:`.endgame`).
@@ -62,7 +68,7 @@ def opening(search: _Search, nodes: list[Node], h_start: float) -> int | None:
         if best_cost <= distance + s.weight_switch:
             return best
     if search.tree is None:  # (a goal tree holds the single reverse runs in already: its shots tried them)
-        status, found = search._astar(nodes, h_start, reverse_only=True, budget=OPENING_REVERSE_NODES)
+        status, found = search._astar(nodes, h_start, budget=OPENING_REVERSE_NODES, only=-1)
         if status == "found" and search._length(nodes, found) < best_cost:
             best, best_cost = found, search._length(nodes, found)
     forward = search.steer_samples_forward
@@ -86,4 +92,15 @@ def opening(search: _Search, nodes: list[Node], h_start: float) -> int | None:
             if cost < best_cost:
                 best, best_cost = landed, cost
             break
+    if best is None and search.tree is not None and not search.scene.is_empty:
+        # Forward as far as it takes, then one reverse run: a search of forward primitives drawn to the goal
+        # tree's nodes (their cost and the distance to them), landing by the end-games from every node.
+        def to_tree(states: np.ndarray) -> np.ndarray:
+            assert search.tree is not None
+            return OPENING_TREE_WEIGHT * search.tree.estimate(states, within=math.inf)
+
+        h = float(to_tree(search.start[None, :4])[0])
+        status, found = search._astar(nodes, h, budget=OPENING_FORWARD_NODES, only=1, heuristic=to_tree)
+        if status == "found":
+            best = found
     return best

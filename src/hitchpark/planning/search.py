@@ -5,6 +5,7 @@ from __future__ import annotations
 import heapq
 import math
 import time
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -142,7 +143,7 @@ class _Search:
     def _set_limit(self, settings: PlannerSettings, limit: float) -> None:
         """The primitives and end-games of ``settings`` with the virtual steer within +-``limit``."""
         s = self.settings = replace(settings, virtual_limit=limit)
-        cap = forward_steer_limit(self.vehicle)
+        cap = forward_steer_limit(self.vehicle, length_tolerance=s.forward_length_tolerance)
         forward = np.linspace(-cap, cap, s.steer_samples)
         reverse = np.linspace(-limit, limit, s.steer_samples)
         self.commands = np.concatenate([forward, reverse])
@@ -150,7 +151,8 @@ class _Search:
         self.directions = np.concatenate([np.ones(s.steer_samples), -np.ones(s.steer_samples)])
         self.straight_back = s.steer_samples + int(np.argmin(np.abs(reverse)))  # the reverse command nearest 0
         self.batch = PrimitiveBatch(self.vehicle, s.primitive_length_m, s.samples, 2 * s.steer_samples)
-        self.reverse_batch = PrimitiveBatch(self.vehicle, s.primitive_length_m, s.samples, s.steer_samples)
+        # one direction's commands
+        self.half_batch = PrimitiveBatch(self.vehicle, s.primitive_length_m, s.samples, s.steer_samples)
         self.steer_samples_forward = forward
         self.endgame = EndGame(self.vehicle, self.goal, s) if s.shot_length_m else None
 
@@ -247,7 +249,7 @@ class _Search:
             found = self._openings(nodes, h_start)
             if found is not None:
                 return self._done("found", "within the goal tolerance (opening)", nodes, found)
-        status, found = self._astar(nodes, h_start, reverse_only=False, budget=s.max_expansions)
+        status, found = self._astar(nodes, h_start, budget=s.max_expansions)
         if status == "found":
             return self._done("found", "within the goal tolerance", nodes, found)
         if status == "planner_timeout":
@@ -261,17 +263,27 @@ class _Search:
             f"the search space is exhausted at a {s.xy_resolution_m:g} m grid: no path reaches the goal tolerance",
         )
 
-    def _astar(self, nodes: list[Node], h_start: float, reverse_only: bool, budget: int) -> tuple[str, int]:
+    def _astar(
+        self,
+        nodes: list[Node],
+        h_start: float,
+        budget: int,
+        only: int = 0,
+        heuristic: Callable[[np.ndarray], np.ndarray] | None = None,
+    ) -> tuple[str, int]:
         """Hybrid A* from node 0: ("found", goal node), ("planner_timeout" | "budget" | "exhausted", -1).
 
-        ``reverse_only``: reverse primitives only (the single reverse runs of the opening); ``budget``: the
-        most nodes this call expands, and the plan's :attr:`expanded` stays within ``max_expansions``.
+        ``only``: 0, both directions; -1, reverse primitives only (the single reverse runs of the opening); 1,
+        forward ones only (and the end-games, one reverse run). ``budget``: the most nodes this call expands, and
+        the plan's :attr:`expanded` stays within ``max_expansions``. ``heuristic``: of end configurations (n, 4),
+        the search's own if None.
         """
         s = self.settings
-        # The reverse primitives are the second half of the commands.
-        pick = slice(s.steer_samples if reverse_only else 0, None)
+        # The forward primitives are the first half of the commands, the reverse ones the second.
+        pick = slice(0, None) if only == 0 else slice(s.steer_samples, None) if only < 0 else slice(0, s.steer_samples)
         commands, dirs = self.commands[pick], self.directions[pick]
-        batch = self.reverse_batch if reverse_only else self.batch
+        batch = self.batch if only == 0 else self.half_batch
+        estimate = self._heuristic if heuristic is None else heuristic
         heap: list[tuple[float, int]] = [(h_start, 0)]
         best_g: dict[tuple[int, int, int, int], float] = {self._key(self.start): 0.0}
         closed: set[tuple[int, int, int, int]] = set()
@@ -323,7 +335,7 @@ class _Search:
                 if self._confirmed(nodes, len(nodes) - 1):
                     return "found", len(nodes) - 1
             ends = motions[:, -1, :]
-            h = self._heuristic(ends)
+            h = estimate(ends)
             child_dirs = dirs[candidates]
             length = trailer_steps.sum(axis=1)
             g_all = node.g + length * np.where(child_dirs > 0, s.weight_forward, s.weight_reverse)

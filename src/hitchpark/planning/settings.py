@@ -53,6 +53,10 @@ class PlannerSettings:
         cannot jackknife); in reverse, virtual steers over +-``virtual_limit``, the front steer following
         from Eq. (45) (:mod:`~hitchpark.planning.motion`). The front steer moves towards the
         command at most ``max_steer_rate``; at a change of direction it is set at standstill.
+    forward_length_tolerance : float
+        The forward cap assumes L_H and L_T this much (a fraction) longer than the vehicle's, as the tracker's
+        cap does (:class:`~hitchpark.control.path_tracking.TrackingSettings`): the planned process sets it to
+        the tracker's, so that a forward run planned is one the tracker can steer. 0: the vehicle's own cap.
     virtual_limit : float
         Largest virtual steer of the reverse primitives [rad] (the paper's NMPC bound, 0.5 rad: a
         trailer-axle radius of about 5 m on Table 4).
@@ -135,6 +139,7 @@ class PlannerSettings:
     primitive_length_m: float = checked(1.5, Real(0.05, 20.0, unit="m"))
     sample_step_m: float = checked(0.1, Real(0.01, 1.0, unit="m"))
     steer_samples: int = checked(7, Integer(2, 41))
+    forward_length_tolerance: float = checked(0.0, Real(0.0, 1.0, high_open=True))
     virtual_limit: float = checked(0.5, Real(0.0, math.pi / 2, low_open=True, high_open=True, unit="rad"))
     obstacle_virtual_limit: float = checked(0.6, Real(0.0, math.pi / 2, low_open=True, high_open=True, unit="rad"))
     hitch_margin: float = checked(math.radians(5.0), Real(0.0, math.pi / 2, high_open=True, unit="rad"))

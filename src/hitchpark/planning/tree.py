@@ -114,7 +114,7 @@ class GoalTree:
         s = settings
         screen = Screen(vehicle, scene, distance_grid(scene, bounds, s.collision_cell_m), s.min_clearance_m)
         hitch_limit = vehicle.max_hitch - s.hitch_margin
-        cap = forward_steer_limit(vehicle)
+        cap = forward_steer_limit(vehicle, length_tolerance=s.forward_length_tolerance)
         commands = np.linspace(-cap, cap, s.steer_samples)
         m = len(commands)
         batch = PrimitiveBatch(vehicle, s.primitive_length_m, s.samples, TREE_BATCH * m)
