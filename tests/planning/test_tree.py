@@ -10,6 +10,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from hitchpark.control.pure_pursuit import forward_steer_limit
 from hitchpark.maneuver.scenario import PLACES_SUITE, builtin_scenario
 from hitchpark.model import State
 from hitchpark.model.collision import clearance, swept_clearance
@@ -200,8 +201,18 @@ def test_each_place_cites_public_sources_and_its_goal_keeps_clear(name):
 
 @pytest.mark.parametrize("name", ["hammerhead", "boat_ramp"])
 def test_new_places_plan_from_their_start(name):
+    """As the planned process plans: forward within the tracker's steer cap. From the hammerhead's stem, heading
+    for the junction, the opening pulls forward round into the far arm and backs across into the near one."""
     sc = builtin_scenario(name)
-    found = plan(sc.vehicle, sc.start, sc.goal, sc.scene, _settings(sc))
+    found = plan(sc.vehicle, sc.start, sc.goal, sc.scene, _settings(sc, forward_length_tolerance=0.2))
     assert found.status == "found", found.detail
     bound, _ = swept_clearance(sc.vehicle, sc.scene, found.states)
     assert bound >= CLEARANCE - 0.0051
+    forward = found.path["direction"] > 0
+    cap = forward_steer_limit(sc.vehicle, length_tolerance=0.2)
+    assert np.all(np.abs(found.path["front_steer"][forward]) <= cap + 1e-12)
+    if name == "hammerhead":
+        assert "opening" in found.detail and found.direction_switches == 1
+        turn = int(np.argmin(forward)) - 1  # the last forward sample
+        assert forward[: turn + 1].all() and not forward[turn + 1 :].any()
+        assert found.path["x_trailer"][turn] > sc.start.x  # east of the stem: in the far arm
