@@ -116,6 +116,15 @@ def test_the_swept_clearance_moves_in_small_enough_steps_for_the_longest_lengths
     assert got <= least + 1e-9
 
 
+@pytest.mark.parametrize("hitch_offset", [0.0, 0.5, 1.05])
+def test_a_vehicle_with_no_tow_bar_or_a_short_one(hitch_offset):
+    """No tow bar (L_H = 0, or within the body), or one that is within the body at the short end of the range."""
+    vehicle = replace(V, hitch_offset=hitch_offset, length_tolerance=0.1)
+    got = SceneChecker(vehicle, YARD).clearances(configs(3, 50))
+    least = np.min([SceneChecker(scaled(vehicle, g), YARD).clearances(configs(3, 50)) for g in (0.9, 1.0, 1.1)], 0)
+    assert np.all(np.isfinite(got)) and np.all(got <= least + 1e-9)
+
+
 def test_the_plants_vehicle_is_exact():
     believed = replace(V, length_tolerance=0.1)
     real = PlantSettings(vehicle={"trailer_length": 2.9623}).resolve_vehicle(believed)

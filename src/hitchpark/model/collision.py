@@ -372,8 +372,7 @@ def _body_geometries(vehicle: VehicleTrailer, configs: np.ndarray) -> np.ndarray
         elif name == "drawbar":  # along the trailer's axis, from its body's front to the farthest hitch
             columns.append(shapely.linestrings(np.stack([xy[:, 0], xy[:, 1] + hitch], 1)))
         else:  # the vehicle, the tow bar: convex hulls of their corners at both ends of the range
-            low = max(-1.0, (vehicle.rear_overhang / vehicle.hitch_offset - 1.0) / f)  # the tow bar's shortest
-            xy = _tolerant(name, xy, hitch, body, low)
+            xy = _tolerant(name, xy, hitch, body, _tow_bar_low(vehicle) if name == "tow_bar" else -1.0)
             m, k = xy.shape[:2]
             columns.append(
                 shapely.convex_hull(shapely.multipoints(xy.reshape(-1, 2), indices=np.repeat(np.arange(m), k)))
@@ -387,6 +386,13 @@ def _length_shifts(vehicle: VehicleTrailer, configs: np.ndarray, fraction: float
     hitch = fraction * vehicle.trailer_length * np.column_stack([np.cos(yaw_t), np.sin(yaw_t)])
     body = hitch + fraction * vehicle.hitch_offset * np.column_stack([np.cos(yaw_v), np.sin(yaw_v)])
     return hitch, body
+
+
+def _tow_bar_low(vehicle: VehicleTrailer) -> float:
+    """The least length factor, as a multiple of ``length_tolerance`` from 1, at which the tow bar still sticks out
+    behind the vehicle's body (-1 if it does over the whole range). Only for a vehicle with a tow bar (L_H > 0)."""
+    f = vehicle.length_tolerance
+    return max(-1.0, (vehicle.rear_overhang / vehicle.hitch_offset - 1.0) / f)
 
 
 def _tolerant(name: str, xy: np.ndarray, hitch: np.ndarray, body: np.ndarray, low: float = -1.0) -> np.ndarray:
