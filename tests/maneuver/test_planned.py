@@ -162,3 +162,22 @@ def test_a_guard_stop_before_the_nmpc_moves_plans_again_where_a_solver_failure_e
     failed = StageEnd("reverse", "nmpc", "solver: infeasible", failed=True, status="Infeasible_Problem_Detected")
     ended = process.next(m, goal, failed)
     assert isinstance(ended, Ending) and ended.outcome is Outcome.SOLVER
+
+
+def test_guard_stops_before_moving_on_the_straight_approach_end_the_maneuver():
+    """On the goal line no plan is made (no round counted): stopped there before it moves, again and again, the
+    process gives up after ``max_replans`` such stops instead of handing out the same stage for ever."""
+    from hitchpark.maneuver.planned import PlannedProcess
+    from hitchpark.maneuver.result import Outcome
+    from hitchpark.maneuver.stages import Ending, StageEnd
+
+    settings = ManeuverSettings()
+    post = Obstacle("post", ((30.0, 20.0), (30.5, 20.0), (30.5, 20.5), (30.0, 20.5)))
+    process = PlannedProcess(V, settings, Scene((post,)), make_nmpc(V, settings.nmpc), 0)
+    m, goal = Measurement(0.0, State(2.0, 0.0, 0.0, 0.0), 0.0, 0.0), Pose()
+    assert not isinstance(process.first(m, goal), Ending)
+    stopped = StageEnd("reverse", "nmpc", "guard: too close", failed=True, status="guard: too close: 0.2 m ahead")
+    outcomes = [process.next(m, goal, stopped) for _ in range(settings.process.max_replans + 1)]
+    assert not any(isinstance(o, Ending) for o in outcomes[:-1])
+    assert isinstance(outcomes[-1], Ending) and outcomes[-1].outcome is Outcome.NO_PATH
+    assert "before it moved" in outcomes[-1].detail and process.rounds == 0

@@ -133,6 +133,7 @@ class PlannedProcess:
         self.plans: list[Plan] = []
         self.rounds = 0  # times it planned (each may have made two plans, see _plan)
         self.corrections = 0
+        self.standing_stops = 0  # guard stops of a stage before it moved
         self.queue: deque[Stage] = deque()
         self.fallback: StagedProcess | None = None
 
@@ -159,6 +160,13 @@ class PlannedProcess:
         if self.rounds > self.settings.process.max_replans:
             why = ended.reason if ended.failed else "the path ended unparked"
             return Ending(Outcome.NO_PATH, f"gave up after {self.rounds - 1} replans; last: {why}")
+        if ended.failed and ended.step == 0 and ended.status.startswith("guard:"):
+            # Stopped before it moved: the straight approach (no plan, no round counted) would be handed the same
+            # stop again and again.
+            self.standing_stops += 1
+            if self.standing_stops > self.settings.process.max_replans:
+                why = f"the guard stopped the car {self.standing_stops} times before it moved"
+                return Ending(Outcome.NO_PATH, f"gave up: {why}; last: {ended.reason}")
         return self._plan(measurement, goal)
 
     def _fall_back(self, measurement: Measurement, goal: Pose, ended: StageEnd | None = None) -> Stage | Ending:
