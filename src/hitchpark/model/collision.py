@@ -37,7 +37,7 @@ import numpy as np
 import shapely
 
 from ..checks import InputError, check_instance, check_number, check_range, check_values
-from .geometry import body_corners, body_outlines, has_tow_bar
+from .geometry import body_corners, body_outlines, body_reaches, has_tow_bar, tolerant_corners
 from .scene import Scene
 from .state import wrap_angle
 from .vehicle import VehicleTrailer, check_vehicle
@@ -241,15 +241,6 @@ def _nearest_points(a: shapely.Geometry, b: shapely.Geometry) -> np.ndarray:
     return np.asarray(shapely.get_coordinates(shapely.shortest_line(a, b)), dtype=float)
 
 
-def _reaches(vehicle: VehicleTrailer) -> tuple[float, float]:
-    """Largest distance of a trailer point from the trailer axle, of a vehicle point from the hitch [m] (with the
-    lengths at the top of their tolerance)."""
-    v, grow = vehicle, 1.0 + vehicle.length_tolerance
-    trailer = max(math.hypot(max(v.trailer_rear, v.trailer_front), v.trailer_width / 2), grow * v.trailer_length)
-    car = math.hypot(grow * v.hitch_offset + v.wheelbase + v.front_overhang, v.vehicle_width / 2)
-    return trailer, car
-
-
 def _subsamples(
     vehicle: VehicleTrailer, states: np.ndarray, max_step_m: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -259,10 +250,9 @@ def _subsamples(
         return states.copy(), np.zeros(1, dtype=int), np.zeros(1)
     delta = np.diff(states, axis=0)
     delta[:, 2:] = wrap_angle(delta[:, 2:])  # the short way round (a heading recorded wrapped)
-    reach_t, reach_v = _reaches(vehicle)
+    reach_t, hitch_reach, reach_v = body_reaches(vehicle)
     shift = np.hypot(delta[:, 0], delta[:, 1])
     turn_t, turn_v = np.abs(delta[:, 2]), np.abs(delta[:, 2] + delta[:, 3])
-    hitch_reach = (1.0 + vehicle.length_tolerance) * vehicle.trailer_length
     moves = shift + np.maximum(turn_t * reach_t, turn_t * hitch_reach + turn_v * reach_v)
     counts = np.maximum(1, np.ceil(moves / max_step_m)).astype(np.int64)
     total = int(counts.sum()) + 1
@@ -353,52 +343,20 @@ class SceneChecker:
 def _body_geometries(vehicle: VehicleTrailer, configs: np.ndarray) -> np.ndarray:
     """The bodies of :func:`body_shapes` for many configurations at once: an (m, b) array of geometries.
 
-    With a ``length_tolerance`` f > 0, each body is the region it covers for every hitch offset and trailer
-    length within the fraction f of the vehicle's (both scaled by one factor in [1 - f, 1 + f]): at a
-    configuration the lengths only translate the vehicle body along ``dL_T e_t + dL_H e_v`` (``e_t``,
-    ``e_v`` the trailer's and the vehicle's heading, Eqs. (25)-(28)) and the hitch along ``dL_T e_t``;
-    a convex body translated along a segment covers the convex hull of its two ends, exactly.
+    With a ``length_tolerance``, each body is the region it covers over the lengths' range: the convex hull of
+    the points of :func:`~.geometry.tolerant_corners`.
     """
     configs = np.asarray(configs, dtype=float).reshape(-1, 4)
-    corners = body_corners(vehicle, *configs.T)
-    f = vehicle.length_tolerance
-    hitch, body = _length_shifts(vehicle, configs, f) if f > 0.0 else (None, None)
+    hulls = vehicle.length_tolerance > 0.0
     columns = []
-    for name, points in corners.items():
-        xy = np.stack([np.stack(p, -1) for p in points], 1)  # (m, corners, 2)
-        if hitch is None or body is None or name == "trailer":
-            closed = len(points) > 2
-            columns.append(shapely.polygons(np.concatenate([xy, xy[:, :1]], 1)) if closed else shapely.linestrings(xy))
-        elif name == "drawbar":  # along the trailer's axis, from its body's front to the farthest hitch
-            columns.append(shapely.linestrings(np.stack([xy[:, 0], xy[:, 1] + hitch], 1)))
-        else:  # the vehicle, the tow bar: convex hulls of their corners at both ends of the range
-            xy = _tolerant(name, xy, hitch, body, _tow_bar_low(vehicle) if name == "tow_bar" else -1.0)
+    for name, xy in tolerant_corners(vehicle, configs).items():  # (m, k, 2) each
+        if hulls and name in ("vehicle", "tow_bar"):
             m, k = xy.shape[:2]
             columns.append(
                 shapely.convex_hull(shapely.multipoints(xy.reshape(-1, 2), indices=np.repeat(np.arange(m), k)))
             )
+        elif xy.shape[1] > 2:
+            columns.append(shapely.polygons(np.concatenate([xy, xy[:, :1]], 1)))
+        else:
+            columns.append(shapely.linestrings(xy))
     return np.stack(columns, axis=1)
-
-
-def _length_shifts(vehicle: VehicleTrailer, configs: np.ndarray, fraction: float) -> tuple[np.ndarray, np.ndarray]:
-    """How far (m, 2) the hitch and the vehicle move when L_H and L_T grow by ``fraction`` of theirs."""
-    yaw_t, yaw_v = configs[:, 2], configs[:, 2] + configs[:, 3]
-    hitch = fraction * vehicle.trailer_length * np.column_stack([np.cos(yaw_t), np.sin(yaw_t)])
-    body = hitch + fraction * vehicle.hitch_offset * np.column_stack([np.cos(yaw_v), np.sin(yaw_v)])
-    return hitch, body
-
-
-def _tow_bar_low(vehicle: VehicleTrailer) -> float:
-    """The least length factor, as a multiple of ``length_tolerance`` from 1, at which the tow bar still sticks out
-    behind the vehicle's body (-1 if it does over the whole range). Only for a vehicle with a tow bar (L_H > 0)."""
-    f = vehicle.length_tolerance
-    return max(-1.0, (vehicle.rear_overhang / vehicle.hitch_offset - 1.0) / f)
-
-
-def _tolerant(name: str, xy: np.ndarray, hitch: np.ndarray, body: np.ndarray, low: float = -1.0) -> np.ndarray:
-    """The points (m, k', 2) whose hull is body ``name`` (corners ``xy``) over the lengths' range; the tow bar's
-    from ``low`` times the shifts (where it still sticks out: shorter, it lies within the vehicle's body)."""
-    if name == "vehicle":
-        return np.concatenate([xy - body[:, None], xy + body[:, None]], 1)
-    # the tow bar: the vehicle's rear moves with the vehicle, the hitch with the hitch
-    return np.stack([xy[:, 0] + low * body, xy[:, 0] + body, xy[:, 1] + low * hitch, xy[:, 1] + hitch], 1)

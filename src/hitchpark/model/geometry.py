@@ -21,11 +21,13 @@ __all__ = [
     "along",
     "body_corners",
     "body_outlines",
+    "body_reaches",
     "check_pose",
     "has_tow_bar",
     "parking_space",
     "rectangle",
     "to_goal_frame",
+    "tolerant_corners",
     "wheel_outlines",
     "wrap_angle",
 ]
@@ -92,6 +94,48 @@ def body_corners(
         back = v.rear_overhang
         bodies["tow_bar"] = [(x_r - back * m.cos(yaw_v), y_r - back * m.sin(yaw_v)), (x_h, y_h)]
     return bodies
+
+
+def tolerant_corners(vehicle: VehicleTrailer, configs: np.ndarray) -> dict[str, np.ndarray]:
+    """Each body's points (m, k, 2) at configurations ``configs`` (m, 4), over the range of its lengths.
+
+    With ``vehicle.length_tolerance`` f > 0, L_H and L_T scaled by one factor in [1 - f, 1 + f]: at a configuration
+    the lengths only translate the vehicle body along ``dL_T e_t + dL_H e_v`` (``e_t``, ``e_v`` the trailer's and
+    the vehicle's heading, Eqs. (25)-(28)) and the hitch along ``dL_T e_t``. A convex body translated along a
+    segment covers the convex hull of its two ends, exactly: the vehicle's points are its corners at both ends,
+    the tow bar's its two ends at both ends of the range where it sticks out behind the body (shorter, it lies
+    within it), the drawbar's its front and the farthest hitch (a segment); the trailer's do not move. With no
+    tolerance, the corners of :func:`body_corners`.
+    """
+    configs = np.asarray(configs, dtype=float).reshape(-1, 4)
+    points = {
+        name: np.stack([np.stack(p, -1) for p in corners], 1)
+        for name, corners in body_corners(vehicle, *configs.T).items()
+    }
+    f = vehicle.length_tolerance
+    if f <= 0.0:
+        return points
+    yaw_t, yaw_v = configs[:, 2], configs[:, 2] + configs[:, 3]
+    hitch = f * vehicle.trailer_length * np.column_stack([np.cos(yaw_t), np.sin(yaw_t)])  # (m, 2) at 1 + f
+    body = hitch + f * vehicle.hitch_offset * np.column_stack([np.cos(yaw_v), np.sin(yaw_v)])
+    out = dict(points)
+    out["vehicle"] = np.concatenate([points["vehicle"] - body[:, None], points["vehicle"] + body[:, None]], 1)
+    out["drawbar"] = np.stack([points["drawbar"][:, 0], points["drawbar"][:, 1] + hitch], 1)
+    if "tow_bar" in points:
+        low = max(-1.0, (vehicle.rear_overhang / vehicle.hitch_offset - 1.0) / f)  # the shortest that sticks out
+        rear, at = points["tow_bar"][:, 0], points["tow_bar"][:, 1]
+        out["tow_bar"] = np.stack([rear + low * body, rear + body, at + low * hitch, at + hitch], 1)
+    return out
+
+
+def body_reaches(vehicle: VehicleTrailer) -> tuple[float, float, float]:
+    """How far [m] a trailer point lies from the trailer axle at most, the hitch from it, and a vehicle point from the
+    hitch, with the lengths at the top of their tolerance: the bounds on a body point's movement between samples."""
+    v, grow = vehicle, 1.0 + vehicle.length_tolerance
+    hitch = grow * v.trailer_length
+    trailer = max(math.hypot(max(v.trailer_rear, v.trailer_front), v.trailer_width / 2), hitch)
+    car = math.hypot(grow * v.hitch_offset + v.wheelbase + v.front_overhang, v.vehicle_width / 2)
+    return trailer, hitch, car
 
 
 def body_outlines(

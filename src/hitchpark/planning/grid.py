@@ -31,6 +31,7 @@ from scipy import ndimage, sparse
 from scipy.sparse import csgraph
 
 from ..model.collision import swept_clearance
+from ..model.geometry import body_reaches
 from ..model.scene import Scene
 from ..model.vehicle import VehicleTrailer
 
@@ -79,12 +80,9 @@ class Discs:
             self.vehicle_x, self.vehicle_y, self.scale = np.concatenate(xs), np.concatenate(ys), np.concatenate(gs)
         self.radius = np.full(len(self.trailer_x) + len(self.vehicle_x), POINT_SPACING / 2)
         self.vehicle = vehicle
-        # Largest distance of a body point from the trailer axle / from the hitch (movement bound), and of the
-        # hitch from the trailer axle, the lengths at the top of their range.
-        self.reach_hitch = grow * v.trailer_length
-        body = math.hypot(max(v.trailer_rear, v.trailer_front), v.trailer_width / 2)
-        self.reach_trailer = max(body, self.reach_hitch)
-        self.reach_vehicle = math.hypot(grow * v.hitch_offset + v.wheelbase + v.front_overhang, v.vehicle_width / 2)
+        # Largest distance of a body point from the trailer axle, of the hitch from it, of a vehicle point from the
+        # hitch (the movement bound), the lengths at the top of their range.
+        self.reach_trailer, self.reach_hitch, self.reach_vehicle = body_reaches(v)
 
     def centres(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World x, y of every point at ``states`` (..., 4): arrays of shape (..., points)."""
