@@ -22,8 +22,12 @@ on this grid has no path.
 
 from __future__ import annotations
 
+import ctypes
 import functools
 import math
+import os
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import shapely
@@ -34,8 +38,9 @@ from ..model.collision import swept_clearance
 from ..model.geometry import body_reaches
 from ..model.scene import Scene
 from ..model.vehicle import VehicleTrailer
+from ..native import jit_available, load_source
 
-__all__ = ["Discs", "DistanceGrid", "HolonomicHeuristic", "distance_grid"]
+__all__ = ["Discs", "DistanceGrid", "HolonomicHeuristic", "distance_grid", "prepare_discs"]
 
 #: Spacing of the points on the body outlines [m].
 POINT_SPACING = 0.1
@@ -80,6 +85,11 @@ class Discs:
             self.vehicle_x, self.vehicle_y, self.scale = np.concatenate(xs), np.concatenate(ys), np.concatenate(gs)
         self.radius = np.full(len(self.trailer_x) + len(self.vehicle_x), POINT_SPACING / 2)
         self.vehicle = vehicle
+        # The compiled check's operands: each vehicle point's lengths (the same numbers as centres' scalars).
+        self._lengths = (
+            np.full(len(self.vehicle_x), v.trailer_length) if self.scale is None else v.trailer_length * self.scale,
+            np.full(len(self.vehicle_x), v.hitch_offset) if self.scale is None else v.hitch_offset * self.scale,
+        )
         # Largest distance of a body point from the trailer axle, of the hitch from it, of a vehicle point from the
         # hitch (the movement bound), the lengths at the top of their range.
         self.reach_trailer, self.reach_hitch, self.reach_vehicle = body_reaches(v)
@@ -99,17 +109,49 @@ class Discs:
         xv, yv = x_r + cv * self.vehicle_x - sv * self.vehicle_y, y_r + sv * self.vehicle_x + cv * self.vehicle_y
         return np.concatenate([xt, xv], axis=-1), np.concatenate([yt, yv], axis=-1)
 
-    def margins(self, grid: DistanceGrid, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def margins(self, grid: DistanceGrid, states: np.ndarray, stop: float = -math.inf) -> tuple[np.ndarray, np.ndarray]:
         """Per motion (n, k + 1, 4), over samples 1..k and every point, from one look-up on ``grid``: the least
         sure clearance (the grid's distance less its error, the point's disc and half the bodies' movement to
         the next sample), and the least distance a point may have at most (the grid's distance and its error:
         half a diagonal to its cell's centre, the grid's distance to a blocked cell's centre, half a diagonal
         from there to the scene). A motion is surely clear by ``c`` when the first exceeds it; a body surely
-        comes nearer than ``c`` when the second is below it."""
-        half_move = 0.5 * self.movement(states)  # (n, k)
-        x, y = self.centres(states[:, 1:, :])  # (n, k, points)
+        comes nearer than ``c`` when the second is below it. With ``stop``, only these two answers for ``c =
+        stop`` are sure: a motion's look may end once both are known (the compiled check's, where most motions of a
+        tight place are refused by their first samples)."""
+        return self.least(grid, states[:, 1:, :], 0.5 * self.movement(states), stop)
+
+    def least(
+        self, grid: DistanceGrid, samples: np.ndarray, half: np.ndarray, stop: float = -math.inf
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`margins` of configurations ``samples`` (n, k, 4), ``half`` (n, k) the half movement into each:
+        compiled (``discs.c``) where it can be, else :meth:`least_numpy`, whose answers these are to the last bit
+        (with ``stop``, the answers to the two questions for it)."""
+        kernel = _kernel(jit_available(), os.environ.get("HITCHPARK_CACHE"))
+        if kernel is None:
+            return self.least_numpy(grid, samples, half)
+        samples = np.ascontiguousarray(samples[..., :4], dtype=float)
+        n, k = samples.shape[:2]
+        yaw, turned = samples[..., 2], samples[..., 2] + samples[..., 3]
+        trig = np.ascontiguousarray(np.stack([np.cos(yaw), np.sin(yaw), np.cos(turned), np.sin(turned)], axis=-1))
+        half = np.ascontiguousarray(np.broadcast_to(half, (n, k)), dtype=float)
+        sure, most = np.empty(n), np.empty(n)
+        bordered = grid.bordered()
+        lt, lh = self._lengths
+        kernel(
+            n, k, samples.ctypes.data, trig.ctypes.data, half.ctypes.data,
+            len(self.trailer_x), self.trailer_x.ctypes.data, self.trailer_y.ctypes.data,
+            len(self.vehicle_x), self.vehicle_x.ctypes.data, self.vehicle_y.ctypes.data, lt.ctypes.data, lh.ctypes.data,
+            self.radius.ctypes.data, bordered.ctypes.data, grid.shape[0], grid.shape[1],
+            float(grid.origin[0]), float(grid.origin[1]), float(grid.cell), float(grid.error), float(stop),
+            sure.ctypes.data, most.ctypes.data,
+        )  # fmt: skip
+        return sure, most
+
+    def least_numpy(self, grid: DistanceGrid, samples: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`least` in NumPy."""
+        x, y = self.centres(samples)  # (n, k, points)
         distance = grid.lookup(x, y)
-        sure = distance - grid.error - self.radius[None, None, :] - half_move[:, :, None]
+        sure = distance - grid.error - self.radius[None, None, :] - half[:, :, None]
         return sure.min(axis=(1, 2)), (distance + grid.error).min(axis=(1, 2))
 
     def movement(self, states: np.ndarray) -> np.ndarray:
@@ -136,7 +178,7 @@ class Screen:
 
     def fast(self, motions: np.ndarray) -> np.ndarray:
         """Per motion (n, k + 1, 4): clear by the fast check alone (samples 1..k)."""
-        return self.discs.margins(self.grid, motions)[0] > self.clearance
+        return self.discs.margins(self.grid, motions, self.clearance)[0] > self.clearance
 
     def clear(self, motions: np.ndarray, asked: np.ndarray | None = None) -> np.ndarray:
         """Per motion (n, k + 1, 4): clear by the fast check, or else by the exact swept clearance (samples
@@ -152,20 +194,49 @@ class Screen:
         if asked is None:
             asked = np.ones(len(motions), dtype=bool)
         if motions.shape[1] > 4 * SKIM_EVERY:  # a long motion: first a look at every few samples for a body
-            asked = asked & (self.discs.margins(self.grid, motions[:, ::SKIM_EVERY])[1] >= self.clearance)
-        sure, most = self.discs.margins(self.grid, motions)
+            skim = self.discs.margins(self.grid, motions[:, ::SKIM_EVERY], self.clearance)[1]
+            asked = asked & (skim >= self.clearance)
+        sure, most = self.discs.margins(self.grid, motions, self.clearance)
         ok = (sure > self.clearance) & asked
         return ok, ~ok & (most >= self.clearance) & asked
 
     def blocked(self, states: np.ndarray) -> np.ndarray:
         """Per configuration (n, 4): a body surely nearer the scene than the clearance (the grid's distance and its
         error below it at some point); a motion through one is refused by :meth:`clear`."""
-        x, y = self.discs.centres(states[:, None, :4])
-        return (self.grid.lookup(x, y) + self.grid.error).min(axis=(1, 2)) < self.clearance
+        most = self.discs.least(self.grid, states[:, None, :4], np.zeros((len(states), 1)), self.clearance)[1]
+        return most < self.clearance
 
     def exact(self, motion: np.ndarray) -> bool:
         """Whether one motion (k + 1, 4) keeps the clearance by the exact swept clearance."""
         return bool(swept_clearance(self.vehicle, self.scene, motion[:, :4])[0] >= self.clearance)
+
+
+#: The compiled :meth:`Discs.least_numpy`.
+DISCS_SOURCE = Path(__file__).with_name("discs.c")
+
+_INT, _PTR, _REAL = ctypes.c_longlong, ctypes.c_void_p, ctypes.c_double
+
+
+@functools.lru_cache(maxsize=8)
+def _kernel(compiling: bool, cache: str | None) -> Any:
+    """The compiled check, or None where nothing compiles (per compilation switch and cache folder)."""
+    if not compiling:
+        return None
+
+    def load(library: Path) -> Any:
+        function = ctypes.CDLL(str(library)).hp_disc_margins
+        function.restype = ctypes.c_int
+        function.argtypes = [_INT, _INT, _PTR, _PTR, _PTR, _INT, _PTR, _PTR, _INT, _PTR, _PTR, _PTR, _PTR, _PTR, _PTR]
+        function.argtypes += [_INT, _INT, _REAL, _REAL, _REAL, _REAL, _REAL, _PTR, _PTR]
+        return function
+
+    return load_source("discs", DISCS_SOURCE, load)
+
+
+def prepare_discs() -> bool:
+    """Compile (or load) the compiled check now, not inside a planner's clock; False where it does not compile
+    (:meth:`Discs.least` then runs NumPy's)."""
+    return _kernel(jit_available(), os.environ.get("HITCHPARK_CACHE")) is not None
 
 
 def _segment(a: float, b: float) -> np.ndarray:
@@ -212,17 +283,23 @@ class DistanceGrid:
             self.distance = np.broadcast_to(np.inf, self.shape)
         self.distance.flags.writeable = False  # shared between plans (distance_grid)
 
+    def bordered(self) -> np.ndarray:
+        """The grid in a frame of -inf (a point off it reads the frame, no mask needed), C-contiguous."""
+        if self._bordered is None:
+            framed = np.pad(np.asarray(self.distance, dtype=float), 1, constant_values=-np.inf)
+            self._bordered = np.ascontiguousarray(framed)
+        return self._bordered
+
     def lookup(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Grid distance at world points; ``-inf`` outside the grid (out of bounds counts as blocked)."""
-        if self._bordered is None:  # the grid in a frame of -inf: a point off it reads the frame, no mask needed
-            self._bordered = np.pad(np.asarray(self.distance, dtype=float), 1, constant_values=-np.inf)
+        bordered = self.bordered()
         nx, ny = self.shape
         i = np.floor((x - self.origin[0]) / self.cell)
         j = np.floor((y - self.origin[1]) / self.cell)
         # Off the grid by any amount (or not a number): the frame.
         i = np.where((i >= 0) & (i < nx), i + 1, 0).astype(np.intp)
         j = np.where((j >= 0) & (j < ny), j + 1, 0).astype(np.intp)
-        return self._bordered[i, j]
+        return bordered[i, j]
 
 
 @functools.lru_cache(maxsize=8)

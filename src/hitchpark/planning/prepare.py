@@ -14,7 +14,7 @@ from ..model.scene import Scene
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
 from .endgame import EndGame
-from .grid import distance_grid
+from .grid import distance_grid, prepare_discs
 from .motion import PrimitiveBatch
 from .opening import OPENING_FORWARD_M
 from .refine import REFINE_PLANES, refine_solver
@@ -39,6 +39,8 @@ def prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Planner
         PrimitiveBatch(vehicle, settings.primitive_length_m, settings.samples, size)
     if settings.shot_length_m:
         EndGame(vehicle, goal, settings).pursuit.prepare()
+    if not scene.is_empty:
+        prepare_discs()  # the compiled fast check
     if scene.area is not None:  # a search's distance grid (its bounds are the area's, whatever the start)
         distance_grid(scene, scene_bounds(vehicle, goal, scene, settings), settings.collision_cell_m)
     tree = None
