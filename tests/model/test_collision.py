@@ -13,9 +13,8 @@ from hypothesis import strategies as st
 
 from hitchpark.checks import InputError
 from hitchpark.model import VehicleTrailer
+from hitchpark.model.checker import SceneChecker, body_geometries
 from hitchpark.model.collision import (
-    SceneChecker,
-    _body_geometries,
     _subsamples,
     body_shapes,
     clearance,
@@ -160,15 +159,13 @@ def test_heading_recorded_wrapped_turns_the_short_way():
     assert short == pytest.approx(clearance(V, far, *states[1]), abs=0.5)
 
 
-configs = st.tuples(
-    st.floats(-20, 20), st.floats(-20, 20), st.floats(-math.pi, math.pi), st.floats(-1.2, 1.2)
-)
+configs = st.tuples(st.floats(-20, 20), st.floats(-20, 20), st.floats(-math.pi, math.pi), st.floats(-1.2, 1.2))
 
 
 @given(configs)
 def test_vectorised_bodies_match_body_shapes(config):
     shapes = body_shapes(V, config)
-    fast = _body_geometries(V, np.array([config]))[0]
+    fast = body_geometries(V, np.array([config]))[0]
     for geometry, key in zip(fast, ("vehicle", "trailer", "drawbar", "tow_bar"), strict=True):
         assert shapely.equals_exact(geometry, shapes[key], tolerance=1e-9)
 

@@ -16,7 +16,8 @@ from hitchpark.checks import InputError
 from hitchpark.control.guard import Guard
 from hitchpark.control.receding import NMPCStep
 from hitchpark.model import VehicleTrailer
-from hitchpark.model.collision import SceneChecker, _body_geometries, body_shapes, swept_clearance
+from hitchpark.model.checker import SceneChecker, body_geometries
+from hitchpark.model.collision import body_shapes, swept_clearance
 from hitchpark.model.plant import Measurement, PlantSettings
 from hitchpark.model.scene import Area, Obstacle, Scene
 from hitchpark.model.state import Pose, State
@@ -100,7 +101,7 @@ def test_the_planners_points_cover_the_bodies_over_the_range(f, state):
     discs = Discs(tolerant)
     x, y = discs.centres(np.array([state]))
     points = shapely.points(np.column_stack([x[0], y[0]]))
-    bodies = _body_geometries(tolerant, np.array([state]))[0]
+    bodies = body_geometries(tolerant, np.array([state]))[0]
     on_a_body = np.min([shapely.distance(points, b) for b in bodies], axis=0)
     assert on_a_body.max() < 1e-9
     for body in bodies:

@@ -18,7 +18,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..model.collision import SceneChecker
+from ..model.checker import SceneChecker
 from ..model.plant import Measurement
 from ..model.scene import Scene
 from ..model.state import Pose, from_goal_frame

@@ -22,9 +22,8 @@ point of the vehicle (body, tow bar) at distance ``r_v`` from the hitch at most
 ``|dc| + |dyaw| L_T + |dyaw + dhitch| r_v``, with ``dc`` the trailer-axle displacement and ``r_t``,
 ``r_v`` the largest such distances of the bodies.
 
-Vectorised with Shapely 2: the bodies of all sub-samples are made at once (:func:`shapely.polygons`,
-:func:`shapely.linestrings`), the nearest obstacle of each comes from an :class:`shapely.STRtree`
-query, the area from :func:`shapely.within` and :func:`shapely.distance` on arrays.
+The distances at many configurations are :class:`~.checker.SceneChecker`'s (compiled where it can be, else
+Shapely's on arrays); the nearest pair of a :class:`Contact` is Shapely's.
 """
 
 from __future__ import annotations
@@ -37,7 +36,8 @@ import numpy as np
 import shapely
 
 from ..checks import InputError, check_instance, check_number, check_range, check_values
-from .geometry import body_corners, body_outlines, body_reaches, has_tow_bar, tolerant_corners
+from .checker import SceneChecker, body_geometries
+from .geometry import body_corners, body_outlines, body_reaches, has_tow_bar
 from .scene import Scene
 from .state import wrap_angle
 from .vehicle import VehicleTrailer, check_vehicle
@@ -107,7 +107,7 @@ def body_shapes(vehicle: VehicleTrailer, state: Any) -> dict[str, shapely.Geomet
     x, y, yaw, hitch = _config(state)
     if check_vehicle(vehicle).length_tolerance > 0.0:  # the bodies over the lengths' range
         names = body_corners(vehicle, x, y, yaw, hitch)
-        return dict(zip(names, _body_geometries(vehicle, np.array([[x, y, yaw, hitch]]))[0], strict=True))
+        return dict(zip(names, body_geometries(vehicle, np.array([[x, y, yaw, hitch]]))[0], strict=True))
     outlines = body_outlines(vehicle, x, y, yaw, hitch)
     shapes: dict[str, shapely.Geometry] = {
         "vehicle": shapely.Polygon(outlines["vehicle"]),
@@ -272,91 +272,3 @@ def _subsamples(
     half_steps[starts] = np.maximum(half, before)
     configs = np.vstack([configs, states[-1:]])
     return configs, np.append(rows, n - 1), np.append(half_steps, half[-1])
-
-
-class SceneChecker:
-    """The scene made ready for many queries: an STRtree of the obstacles, the area and its ring."""
-
-    def __init__(self, vehicle: VehicleTrailer, scene: Scene):
-        self.vehicle = vehicle
-        self.obstacles = np.array([shapely.Polygon(o.polygon) for o in scene.obstacles], dtype=object)
-        self.boxes = shapely.bounds(self.obstacles).reshape(-1, 4)  # xmin, ymin, xmax, ymax of each
-        self.tree = shapely.STRtree(self.obstacles) if scene.obstacles else None
-        self.area = shapely.Polygon(scene.area.boundary) if scene.area is not None else None
-        if self.area is not None:
-            shapely.prepare(self.area)
-        self.ring = self.area.exterior if self.area is not None else None
-
-    def clearances(self, configs: np.ndarray) -> np.ndarray:
-        """Clearance [m] of each configuration, rows (x, y, yaw, hitch)."""
-        bodies = _body_geometries(self.vehicle, configs)  # (m, b)
-        flat = bodies.ravel()
-        nearest = np.full(len(flat), math.inf)
-        if self.tree is not None:
-            (which, _), distance = self.tree.query_nearest(flat, return_distance=True, all_matches=False)
-            np.minimum.at(nearest, which, distance)
-        if self.area is not None:
-            inside = shapely.within(flat, self.area)
-            nearest = np.minimum(nearest, np.where(inside, shapely.distance(flat, self.ring), 0.0))
-        return nearest.reshape(bodies.shape).min(axis=1)
-
-    def bounds(self, configs: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """For a sweep: ``max(clearance - half, 0)`` and the clearance of each configuration, where it matters.
-
-        Exact for every configuration whose bound could be the least of ``configs``; the others may come
-        out larger (up to inf) than they are. Pruned by bounding boxes: a body's distance to an obstacle is
-        computed only when the distance between their boxes, less the half step, does not exceed a bound
-        already reached (the distance to the obstacle whose box is nearest, or the area's).
-        """
-        bodies = _body_geometries(self.vehicle, configs)  # (m, b)
-        flat = bodies.ravel()
-        slack = np.repeat(half, bodies.shape[1])  # the half step of each body's configuration
-        near = np.full(len(flat), math.inf)
-        if self.area is not None:
-            near = self._area_distances(flat)
-        if len(self.obstacles):
-            boxes = shapely.bounds(flat)
-            gap_x = np.maximum(self.boxes[None, :, 0] - boxes[:, None, 2], boxes[:, None, 0] - self.boxes[None, :, 2])
-            gap_y = np.maximum(self.boxes[None, :, 1] - boxes[:, None, 3], boxes[:, None, 1] - self.boxes[None, :, 3])
-            low = np.hypot(np.maximum(gap_x, 0.0), np.maximum(gap_y, 0.0))  # (n, k) lower bounds
-            first = np.argmin(low, axis=1)
-            near = np.minimum(near, shapely.distance(flat, self.obstacles[first]))
-            reached = max(float(np.min(near - slack)), 0.0)  # the least bound is at most this
-            low[np.arange(len(flat)), first] = math.inf  # computed already
-            body, obstacle = np.nonzero(low - slack[:, None] <= reached)
-            if len(body):
-                np.minimum.at(near, body, shapely.distance(flat[body], self.obstacles[obstacle]))
-        exact = near.reshape(bodies.shape).min(axis=1)
-        return np.maximum(exact - half, 0.0), exact
-
-    def _area_distances(self, flat: np.ndarray) -> np.ndarray:
-        """Distance of each body to the area's boundary, 0 if it is not wholly inside the area.
-
-        A body clear of the boundary lies wholly inside or wholly outside: one of its points decides.
-        """
-        distance = shapely.distance(flat, self.ring)
-        coords, index = shapely.get_coordinates(flat, return_index=True)
-        x, y = coords[np.searchsorted(index, np.arange(len(flat)))].T
-        return np.where(shapely.contains_xy(self.area, x, y), distance, 0.0)
-
-
-def _body_geometries(vehicle: VehicleTrailer, configs: np.ndarray) -> np.ndarray:
-    """The bodies of :func:`body_shapes` for many configurations at once: an (m, b) array of geometries.
-
-    With a ``length_tolerance``, each body is the region it covers over the lengths' range: the convex hull of
-    the points of :func:`~.geometry.tolerant_corners`.
-    """
-    configs = np.asarray(configs, dtype=float).reshape(-1, 4)
-    hulls = vehicle.length_tolerance > 0.0
-    columns = []
-    for name, xy in tolerant_corners(vehicle, configs).items():  # (m, k, 2) each
-        if hulls and name in ("vehicle", "tow_bar"):
-            m, k = xy.shape[:2]
-            columns.append(
-                shapely.convex_hull(shapely.multipoints(xy.reshape(-1, 2), indices=np.repeat(np.arange(m), k)))
-            )
-        elif xy.shape[1] > 2:
-            columns.append(shapely.polygons(np.concatenate([xy, xy[:, :1]], 1)))
-        else:
-            columns.append(shapely.linestrings(xy))
-    return np.stack(columns, axis=1)

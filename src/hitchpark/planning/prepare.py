@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..control.clearance import prepare_lines
+from ..model.checker import prepare_distances
 from ..model.scene import Scene
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
@@ -40,7 +41,8 @@ def prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Planner
     if settings.shot_length_m:
         EndGame(vehicle, goal, settings).pursuit.prepare()
     if not scene.is_empty:
-        prepare_discs()  # the compiled fast check
+        prepare_discs()  # the compiled fast check and exact distances
+        prepare_distances()
     if scene.area is not None:  # a search's distance grid (its bounds are the area's, whatever the start)
         distance_grid(scene, scene_bounds(vehicle, goal, scene, settings), settings.collision_cell_m)
     tree = None
