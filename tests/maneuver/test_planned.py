@@ -181,3 +181,29 @@ def test_guard_stops_before_moving_on_the_straight_approach_end_the_maneuver():
     assert not any(isinstance(o, Ending) for o in outcomes[:-1])
     assert isinstance(outcomes[-1], Ending) and outcomes[-1].outcome is Outcome.NO_PATH
     assert "before it moved" in outcomes[-1].detail and process.rounds == 0
+
+
+def test_a_search_that_finds_nothing_records_and_draws_where_it_got_stuck():
+    """no_path with a tiny budget: each failed plan keeps the configuration its search reached nearest the goal (the
+    one its detail names), the record round-trips it, and the motion figure marks it."""
+    from dataclasses import replace
+
+    from hitchpark.maneuver.scenario import builtin_scenario
+    from hitchpark.viz.figures import motion_figure
+
+    sc = builtin_scenario("loading_dock")
+    settings = replace(sc.settings, planner=replace(sc.settings.planner, max_expansions=5, shot_length_m=0.0))
+    r = park(sc.vehicle, State(25.2, 7.0, math.radians(90.0), 0.0), sc.goal, settings, scene=sc.scene)
+    assert r.reason == "no_path"
+    stuck = [p for p in r.plans if p.closest is not None]
+    assert stuck and all(p.status == "no_path" for p in stuck)
+    for p in stuck:
+        x, y = p.closest[:2]
+        assert f"closest: trailer axle at ({x:.2f}, {y:.2f}) m" in p.detail
+    back = ManeuverResult.from_dict(json.loads(json.dumps(to_jsonable(r.to_dict()))))
+    assert [p.closest for p in back.plans] == [p.closest for p in r.plans]
+    figure = motion_figure(r)
+    texts = [t.get_text() for ax in figure.axes for t in ax.texts]
+    assert texts.count("search stuck here") >= len(stuck)
+    with pytest.raises(InputError, match="4 numbers"):
+        ManeuverResult.from_dict({**back.to_dict(), "plans": [{**back.plans[0].to_dict(), "closest": [1.0, 2.0]}]})

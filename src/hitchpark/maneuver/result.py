@@ -29,6 +29,7 @@ from ..checks import (
     check_keys,
     check_mapping,
     check_text,
+    check_values,
     checked,
     shown,
 )
@@ -145,20 +146,29 @@ PLAN_COLUMNS = ("x_trailer", "y_trailer", "yaw_trailer", "hitch", "direction")
 
 @dataclass(frozen=True)
 class PlanRecord:
-    """One plan of a planned maneuver: its status, planning time [s], detail, and path (:data:`PLAN_COLUMNS`)."""
+    """One plan of a planned maneuver: its status, planning time [s], detail, path (:data:`PLAN_COLUMNS`), and for
+    a search that found nothing, where it got stuck (``closest``: x, y, yaw, hitch of the trailer axle, or None;
+    written only where there is one)."""
 
     status: str = checked(check=Choice(STATUSES))
     planning_s: float = checked(check=Real(0.0, MAX_MANEUVER_TIME, unit="s"))
     detail: str = checked("", Text(max_length=500))
     path: dict[str, np.ndarray] = field(default_factory=dict)
+    closest: tuple[float, float, float, float] | None = None
 
     def __post_init__(self) -> None:
         check_fields(self, "plans[].")
+        if self.closest is not None:
+            values = check_values("plans[].closest", self.closest, ndim=1)
+            if values.shape != (4,):
+                raise InputError(f"plans[].closest must be 4 numbers (x, y, yaw, hitch), got {values.size}")
+            object.__setattr__(self, "closest", tuple(float(v) for v in values))
 
     @classmethod
     def of(cls, plan: Plan) -> PlanRecord:
         path = {c: plan.path[c] for c in PLAN_COLUMNS} if plan.path else {}
-        return cls(plan.status, plan.planning_s, plan.detail[:500], path)
+        closest = None if plan.closest is None else tuple(float(v) for v in plan.closest)
+        return cls(plan.status, plan.planning_s, plan.detail[:500], path, closest)  # type: ignore[arg-type]
 
     @property
     def direction_switches(self) -> int:
@@ -171,11 +181,11 @@ class PlanRecord:
             "planning_s": self.planning_s,
             "detail": self.detail,
             "path": {c: self.path[c].tolist() for c in PLAN_COLUMNS} if self.path else {},
-        }
+        } | ({} if self.closest is None else {"closest": list(self.closest)})
 
     @classmethod
     def from_dict(cls, data: Any, what: str) -> PlanRecord:
-        table = dict(check_keys(what, data, ("status", "planning_s", "detail", "path")))
+        table = dict(check_keys(what, data, ("status", "planning_s", "detail", "path", "closest")))
         columns: dict[str, np.ndarray] = {}
         if table.get("path"):
             path = Trajectory.from_dict(check_mapping(f"{what}.path", table["path"]), finite=PLAN_COLUMNS)

@@ -213,6 +213,7 @@ class _Search:
             planning_s=time.perf_counter() - self.began,
             expanded=self.expanded,
             detail=detail,
+            closest=None if status == "found" or self.closest is None else self.closest.state[:4].copy(),
         )
 
     def run(self) -> Plan:

@@ -229,7 +229,9 @@ class Plan:
     time at 1 m/s of the rear axle [s] (steering at standstill at a change of direction takes none).
     ``direction_switches``: changes of direction along the path; ``length_m``: trailer-axle path length;
     ``planning_s``: wall-clock time (the only field that depends on the machine); ``expanded``: nodes
-    expanded; ``detail``: why, in words.
+    expanded; ``detail``: why, in words; ``closest``: for a search that found nothing, the configuration (x,
+    y, yaw, hitch of the trailer axle) it reached nearest the goal, where it got stuck (``detail`` says what is
+    nearest there), else None.
     """
 
     status: str
@@ -239,6 +241,7 @@ class Plan:
     planning_s: float = 0.0
     expanded: int = 0
     detail: str = ""
+    closest: np.ndarray | None = None
 
     @property
     def found(self) -> bool:

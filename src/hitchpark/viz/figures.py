@@ -214,6 +214,8 @@ def motion_figure(result: ManeuverResult, snapshot_every: float = 2.0) -> Figure
     if n_plans:
         label = "planned path (trailer axle)" + (f", {n_plans} plans with replans" if n_plans > 1 else "")
         handles.append(Line2D([], [], **PLAN_STYLE, label=label))
+    if any(plan.closest is not None for plan in result.plans):
+        handles.append(Patch(fill=False, ec=LIMIT_COLOR, ls=":", label="where a search that found nothing got stuck"))
     if scene.obstacles:
         handles.append(Patch(fc=OBSTACLE_FACE, ec=OBSTACLE_EDGE, label="obstacle"))
     if scene.area is not None:

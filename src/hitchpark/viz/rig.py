@@ -14,6 +14,7 @@ import shapely
 from ..model.collision import Contact
 from ..model.geometry import along, body_outlines, parking_space, wheel_outlines
 from ..model.scene import Scene
+from ..model.vehicle import VehicleTrailer
 from .common import (
     AREA_EDGE,
     LIMIT_COLOR,
@@ -275,14 +276,36 @@ def draw_swept(ax: Axes, outlines: dict[str, list[np.ndarray]], zorder: float = 
 def draw_plans(ax: Axes, result: ManeuverResult, zorder: float = 4.5) -> int:
     """The planned paths of the trailer axle (each plan and replan with a path), thin and dashed; how many.
 
-    Added without widening the axes' data limits: a plan runs where the motion runs, or it was left.
+    Added without widening the axes' data limits: a plan runs where the motion runs, or it was left. A search
+    that found nothing is drawn where it got stuck (:func:`draw_stuck`).
     """
     from matplotlib.lines import Line2D
 
     drawn = 0
     for plan in result.plans:
+        if plan.closest is not None:
+            draw_stuck(ax, result.vehicle, plan.closest, zorder)
         if len(plan.path.get("x_trailer", ())) < 2:
             continue
         ax.add_artist(Line2D(plan.path["x_trailer"], plan.path["y_trailer"], zorder=zorder, **PLAN_STYLE))
         drawn += 1
     return drawn
+
+
+def draw_stuck(ax: Axes, vehicle: VehicleTrailer, config: tuple[float, ...], zorder: float = 4.5) -> None:
+    """The bodies, dotted in the limit colour, where a search that found nothing came nearest the goal, labelled."""
+    from matplotlib.patches import Polygon
+
+    bodies = body_outlines(vehicle, *config)
+    for key in ("vehicle", "trailer"):
+        ax.add_patch(Polygon(bodies[key], closed=True, fill=False, ec=LIMIT_COLOR, lw=1.0, ls=":", zorder=zorder))
+    ax.annotate(
+        "search stuck here",
+        xy=(config[0], config[1]),
+        xytext=(6, -10),
+        textcoords="offset points",
+        fontsize=7.5,
+        color=LIMIT_COLOR,
+        zorder=zorder + 0.1,
+        annotation_clip=True,
+    )
