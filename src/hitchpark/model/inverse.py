@@ -80,7 +80,7 @@ def virtual_steer_from_front(vehicle: VehicleTrailer, hitch_angle: Any, front_st
 
     The exact inverse of Eq. (45): delta_T = hitch - atan((L_H / L) tan(delta_f)).
     Eq. (56)'s ratio is evaluated with a two-argument arctangent (its denominator is
-    positive whenever |hitch - delta_T| < 90 deg), so the answer stays on the right
+    positive whenever ``|hitch - delta_T| < 90 deg``), so the answer stays on the right
     branch for large hitch angles too. Works for L_H = 0 (then delta_T = hitch).
     """
     hitch_angle, front_steer = _inputs(vehicle, hitch_angle=hitch_angle, front_steer=front_steer)

@@ -45,9 +45,9 @@ class VehicleTrailer:
     trailer_length : float
         L_T, hitch joint to trailer axle [m], > 0.
     max_steer : float
-        Front-wheel steer limit |delta_f| <= max_steer [rad], in (0, pi/2).
+        Front-wheel steer limit ``|delta_f| <= max_steer`` [rad], in (0, pi/2).
     max_hitch : float
-        Jackknife limit |hitch angle| <= max_hitch [rad], in (0, pi/2). Default 70 deg.
+        Jackknife limit ``|hitch angle| <= max_hitch`` [rad], in (0, pi/2). Default 70 deg.
     front_overhang, rear_overhang : float
         Vehicle body ahead of the front axle / behind the rear axle [m], > 0.
     vehicle_width : float

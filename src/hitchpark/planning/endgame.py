@@ -213,9 +213,9 @@ class EndGame:
         runs = self.pursuit.run(start, padded, lookaheads, s.obstacle_virtual_limit, ended)
         found: list[tuple[np.ndarray, int]] = []
         for r, run in enumerate(runs):
-            last = len(run) - 1
-            while last > 0 and np.array_equal(run[last], run[last - 1]):  # a run that ended is padded
-                last -= 1
+            # A run that ended is padded with its last sample: its end is the last sample unlike the one before.
+            moved = np.flatnonzero(np.any(run[1:] != run[:-1], axis=1))
+            last = int(moved[-1]) + 1 if len(moved) else 0
             onto, at = handoff.onto_run(r, run[last][None, :])
             if last > 0 and onto[0]:
                 rest = exact[r][0][int(at[0]) + 1 :].copy()

@@ -119,11 +119,11 @@ class PlannerSettings:
         Cost of a change of direction [m of path]; the opening takes a single reverse run over a path with
         one change of direction when it is no more than this longer.
     weight_steer : float
-        Cost per metre and radian of |steer|.
+        Cost per metre and radian of ``|steer|``.
     weight_steer_change : float
         Cost per radian of steer change between primitives.
     weight_hitch : float
-        Cost per metre and radian of |hitch|.
+        Cost per metre and radian of ``|hitch|``.
     heuristic_yaw_m : float
         Heuristic cost per radian of heading error [m/rad], added to the trailer-axle distance to the goal.
     heuristic_hitch_m : float

@@ -228,10 +228,20 @@ def _cache_key(
 ) -> str:
     obstacles = [(o.name, np.asarray(o.polygon).round(9).tolist()) for o in scene.obstacles]
     area = None if scene.area is None else np.asarray(scene.area.boundary).round(9).tolist()
-    code = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()  # this module's text: a change builds anew
     # Compiled primitives and CasADi's virtual machine agree to rounding, not to the bit: their trees apart.
-    text = repr(("goal-tree", code, jit_available(), vehicle, goal, obstacles, area, settings, bounds))
+    text = repr(("goal-tree", _code(), jit_available(), vehicle, goal, obstacles, area, settings, bounds))
     return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+@functools.cache
+def _code() -> str:
+    """A hash of the code a tree is grown by (the planner's and the model's modules, Python and C): a change to
+    any, the collision checks' included, builds anew rather than load a tree another version grew."""
+    digest = hashlib.sha256()
+    for folder in (Path(__file__).parent, Path(__file__).parent.parent / "model"):
+        for path in sorted(folder.glob("*.py")) + sorted(folder.glob("*.c")):
+            digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
 
 
 @functools.lru_cache(maxsize=8)
