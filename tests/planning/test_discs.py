@@ -88,3 +88,22 @@ def test_where_the_compiler_refuses_the_check_is_numpys(jit_cache, place, monkey
     got = discs.least(grid, samples, np.zeros((3, 4)), -math.inf)
     want = discs.least_numpy(grid, samples, np.zeros((3, 4)))
     assert all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
+
+
+def test_groups_shown_clear_at_their_centre_are_passed_over_with_the_same_answers(jit_cache, place):
+    """Short motions about the goal of a narrow driveway, some near its walls, some clear: the compiled check
+    passes over groups of points the grid shows clear (its sure value then above NumPy's least) and answers as
+    NumPy's every point does, for clearances from touching to a metre."""
+    scenario, grid = place
+    rng = np.random.default_rng(11)
+    goal = scenario.goal
+    starts = np.array([goal.x, goal.y, goal.yaw, 0.0]) + rng.normal(0.0, [4.0, 0.3, 0.05, 0.05], (200, 1, 4))
+    motions = np.concatenate([starts, starts + np.cumsum(rng.normal(0.0, 0.01, (200, 10, 4)), axis=1)], axis=1)
+    discs = Discs(scenario.vehicle)
+    full_sure, full_most = discs.least_numpy(grid, motions[:, 1:], np.zeros((200, 10)))
+    passed_over = 0
+    for c in (0.0, 0.1, 0.3, 0.6, 1.0):
+        sure, most = discs.least(grid, motions[:, 1:], np.zeros((200, 10)), c)
+        assert np.array_equal(sure > c, full_sure > c) and np.array_equal(most < c, full_most < c)
+        passed_over += int(np.count_nonzero(sure > full_sure))
+    assert passed_over > 0

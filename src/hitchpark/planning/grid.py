@@ -45,6 +45,10 @@ __all__ = ["Discs", "DistanceGrid", "HolonomicHeuristic", "distance_grid", "prep
 #: Spacing of the points on the body outlines [m].
 POINT_SPACING = 0.1
 
+#: The compiled check groups the points by cells of this side [m] of their body's frame (and 5% of scale): a
+#: group the grid shows clear at its centre is passed over whole.
+GROUP_M = 0.7
+
 
 class Discs:
     """Points on the outlines of the bodies, each standing for a disc of radius ``POINT_SPACING / 2``.
@@ -85,14 +89,50 @@ class Discs:
             self.vehicle_x, self.vehicle_y, self.scale = np.concatenate(xs), np.concatenate(ys), np.concatenate(gs)
         self.radius = np.full(len(self.trailer_x) + len(self.vehicle_x), POINT_SPACING / 2)
         self.vehicle = vehicle
-        # The compiled check's operands: each vehicle point's lengths (the same numbers as centres' scalars).
+        # The compiled check's operands: each vehicle point's lengths (the same numbers as centres' scalars), and
+        # the points in groups of neighbours.
         self._lengths = (
             np.full(len(self.vehicle_x), v.trailer_length) if self.scale is None else v.trailer_length * self.scale,
             np.full(len(self.vehicle_x), v.hitch_offset) if self.scale is None else v.hitch_offset * self.scale,
         )
+        self._groups = self._group()
         # Largest distance of a body point from the trailer axle, of the hitch from it, of a vehicle point from the
         # hitch (the movement bound), the lengths at the top of their range.
         self.reach_trailer, self.reach_hitch, self.reach_vehicle = body_reaches(v)
+
+    def _group(self) -> tuple[np.ndarray, ...]:
+        """The points in groups of neighbours (see ``discs.c``): each group's points (``order``, ``starts``), body,
+        centre and lengths, and reach (its farthest point from the centre, over its lengths, and its disc)."""
+        nt = len(self.trailer_x)
+        lt, lh = self._lengths
+        scale = np.ones(len(self.vehicle_x)) if self.scale is None else self.scale
+        body = np.concatenate([np.zeros(nt, dtype=int), np.ones(len(self.vehicle_x), dtype=int)])
+        x, y = np.concatenate([self.trailer_x, self.vehicle_x]), np.concatenate([self.trailer_y, self.vehicle_y])
+        lengths_t, lengths_h = np.concatenate([np.zeros(nt), lt]), np.concatenate([np.zeros(nt), lh])
+        keys = np.column_stack(
+            [
+                body,
+                np.floor(x / GROUP_M),
+                np.floor(y / GROUP_M),
+                np.floor((np.concatenate([np.ones(nt), scale]) - 1.0) / 0.05),
+            ]
+        )
+        _, which = np.unique(keys, axis=0, return_inverse=True)
+        order = np.argsort(which.ravel(), kind="stable")
+        counts = np.bincount(which.ravel())
+        starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        columns: list[list[float]] = [[], [], [], [], [], []]
+        for g in range(len(counts)):
+            members = order[starts[g] : starts[g + 1]]
+            cx, cy = float(x[members].mean()), float(y[members].mean())
+            gt, gh = float(lengths_t[members].mean()), float(lengths_h[members].mean())
+            far = np.hypot(x[members] - cx, y[members] - cy) + np.abs(lengths_t[members] - gt)
+            far += np.abs(lengths_h[members] - gh)
+            values = (body[members[0]], cx, cy, gt, gh, far.max() + self.radius[members].max())
+            for column, value in zip(columns, values, strict=True):
+                column.append(value)
+        vehicle = np.array(columns[0], dtype=np.intc)
+        return (order.astype(np.int64), starts, vehicle, *(np.array(c, dtype=float) for c in columns[1:]))
 
     def centres(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World x, y of every point at ``states`` (..., 4): arrays of shape (..., points)."""
@@ -137,13 +177,15 @@ class Discs:
         sure, most = np.empty(n), np.empty(n)
         bordered = grid.bordered()
         lt, lh = self._lengths
+        order, starts, vehicle, cx, cy, gt, gh, reach = self._groups
         kernel(
             n, k, samples.ctypes.data, trig.ctypes.data, half.ctypes.data,
             len(self.trailer_x), self.trailer_x.ctypes.data, self.trailer_y.ctypes.data,
             len(self.vehicle_x), self.vehicle_x.ctypes.data, self.vehicle_y.ctypes.data, lt.ctypes.data, lh.ctypes.data,
             self.radius.ctypes.data, bordered.ctypes.data, grid.shape[0], grid.shape[1],
             float(grid.origin[0]), float(grid.origin[1]), float(grid.cell), float(grid.error), float(stop),
-            sure.ctypes.data, most.ctypes.data,
+            len(starts) - 1, order.ctypes.data, starts.ctypes.data, vehicle.ctypes.data, cx.ctypes.data,
+            cy.ctypes.data, gt.ctypes.data, gh.ctypes.data, reach.ctypes.data, sure.ctypes.data, most.ctypes.data,
         )  # fmt: skip
         return sure, most
 
@@ -227,7 +269,8 @@ def _kernel(compiling: bool, cache: str | None) -> Any:
         function = ctypes.CDLL(str(library)).hp_disc_margins
         function.restype = ctypes.c_int
         function.argtypes = [_INT, _INT, _PTR, _PTR, _PTR, _INT, _PTR, _PTR, _INT, _PTR, _PTR, _PTR, _PTR, _PTR, _PTR]
-        function.argtypes += [_INT, _INT, _REAL, _REAL, _REAL, _REAL, _REAL, _PTR, _PTR]
+        function.argtypes += [_INT, _INT, _REAL, _REAL, _REAL, _REAL, _REAL, _INT, _PTR, _PTR, _PTR, _PTR, _PTR]
+        function.argtypes += [_PTR, _PTR, _PTR, _PTR, _PTR]
         return function
 
     return load_source("discs", DISCS_SOURCE, load)
