@@ -21,7 +21,7 @@ from hitchpark.model.collision import body_shapes, swept_clearance
 from hitchpark.model.plant import Measurement, PlantSettings
 from hitchpark.model.scene import Area, Obstacle, Scene
 from hitchpark.model.state import Pose, State
-from hitchpark.planning.grid import POINT_SPACING, Discs
+from hitchpark.planning.discs import POINT_SPACING, Discs
 
 V = VehicleTrailer()
 # A yard with a wall, a post and a tight boundary: bodies come near all three.

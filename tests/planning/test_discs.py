@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 
 from hitchpark.maneuver.scenario import builtin_scenario
-from hitchpark.planning import grid as grid_module
-from hitchpark.planning.grid import Discs, DistanceGrid, Screen
+from hitchpark.planning import discs as discs_module
+from hitchpark.planning.discs import Discs
+from hitchpark.planning.grid import Screen
+from hitchpark.planning.raster import DistanceGrid
 
 
 @pytest.fixture(scope="module")
@@ -30,7 +32,7 @@ def _samples(rng: np.random.Generator, n: int, k: int) -> np.ndarray:
 def test_the_compiled_check_is_numpys_bit_for_bit(jit_cache, place, tolerance):
     """Both least values of every motion, with and without a length tolerance, off the grid and not a number."""
     scenario, grid = place
-    assert grid_module._kernel(True, str(jit_cache[0])) is not None  # the compiled code, not NumPy again
+    assert discs_module._kernel(True, str(jit_cache[0])) is not None  # the compiled code, not NumPy again
     discs = Discs(replace(scenario.vehicle, length_tolerance=tolerance))
     rng = np.random.default_rng(7)
     for trial in range(30):
@@ -81,7 +83,7 @@ def test_the_screen_answers_as_numpy_does(jit_cache, place, monkeypatch):
 
 def test_where_the_compiler_refuses_the_check_is_numpys(jit_cache, place, monkeypatch):
     monkeypatch.setenv("CC", "false")  # found on the path, compiles nothing
-    assert grid_module._kernel(True, str(jit_cache[0])) is None
+    assert discs_module._kernel(True, str(jit_cache[0])) is None
     scenario, grid = place
     discs = Discs(scenario.vehicle)
     samples = _samples(np.random.default_rng(10), 3, 4)

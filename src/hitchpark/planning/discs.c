@@ -1,6 +1,7 @@
-/* The planner's fast collision check, compiled: grid.Discs.margins_numpy, operation for operation and in the
-   same order, so that the two agree to the last bit. In NumPy it was half of a search's time among
-   obstacles (every outline point of every sample of every primitive, each a few temporary arrays).
+/* The planner's fast collision check, compiled: grid.Discs.least_numpy's arithmetic for each point, operation for
+   operation, so that each point's numbers agree with NumPy's to the last bit (and so their least: it does not
+   depend on the order the points are taken in). In NumPy it was half of a search's time among obstacles (every
+   outline point of every sample of every primitive, each a few temporary arrays).
 
    n, k          motions and samples per motion
    states        (n, k, 4) x, y, yaw, hitch of the trailer axle at each sample

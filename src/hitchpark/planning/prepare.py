@@ -14,10 +14,11 @@ from ..model.checker import prepare_distances
 from ..model.scene import Scene
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
+from .discs import prepare_discs
 from .endgame import EndGame
-from .grid import distance_grid, prepare_discs
 from .motion import PrimitiveBatch
 from .opening import OPENING_FORWARD_M
+from .raster import distance_grid
 from .refine import REFINE_PLANES, refine_solver
 from .settings import PlannerSettings
 from .tree import GoalTree, goal_tree

@@ -17,13 +17,14 @@ from ..model.scene import Scene
 from ..model.state import Pose, State, check_goal, check_state, goal_frame_position, goal_frame_yaw, to_goal_frame
 from ..model.vehicle import VehicleTrailer, check_vehicle
 from .endgame import EndGame, Landing, TreeLanding
-from .grid import HolonomicHeuristic, Screen, distance_grid
+from .grid import HolonomicHeuristic, Screen
 from .heuristic import CostToGo, trailer_table
 from .motion import PrimitiveBatch
 from .nodes import Node
 from .opening import OPENING_FORWARD_M, opening
 from .prepare import prepare as _prepare
 from .prepare import scene_bounds
+from .raster import distance_grid
 from .refine import refine_plan
 from .settings import Plan, PlannerSettings, arrived
 from .tree import NEAR_M, TREE_MAX_M, GoalTree, cell_key

@@ -5,7 +5,7 @@ backwards, is a reverse motion into it, with the same front steer at every point
 driveway, a bay or a dock is forward, where the combination is stable, so the tree grows as a driver
 pulls out: from the goal (hitch and steer straight) forward primitives of a held front steer, rate-limited
 (:class:`~hitchpark.planning.motion.PrimitiveBatch`), a uniform-cost search over the search's cells, every
-motion screened by the fast check of :mod:`~hitchpark.planning.grid`. Each node's chain back to the goal,
+motion screened by the fast check of :mod:`~hitchpark.planning.discs`. Each node's chain back to the goal,
 read backwards, is a reverse run from the node into the goal: the tree holds every way in of a single
 reverse run, up to :data:`TREE_MAX_M` of trailer-axle path and :data:`TREE_NODES` nodes (counts: the same
 tree on any machine).
@@ -37,8 +37,9 @@ from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
 from ..native import jit_available
 from .cache import cached_arrays
-from .grid import Screen, distance_grid
+from .grid import Screen
 from .motion import PrimitiveBatch
+from .raster import distance_grid
 from .settings import PlannerSettings
 
 __all__ = ["TREE_MAX_M", "TREE_NODES", "GoalTree", "cell_key", "goal_tree"]
