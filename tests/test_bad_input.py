@@ -1,8 +1,9 @@
 """Every class of bad input, one case each: refused on one line with exit status 2 (CLI) or ``InputError`` (API).
 
-The README's list of bad-input classes is this file's ``CLI_CASES``, ``OUTPUT_CASES``, ``FILE_CASES``,
-``JSON_CASES`` and ``API_CASES``. A command-line case also checks that nothing was written. Generated inputs of the
-same kinds are in ``tests/fuzz`` (``python benchmarks/fuzz_inputs.py`` runs them at scale).
+The documentation's list of bad-input classes (``docs/reference/bad-input.md``) is this file's ``CLI_CASES``,
+``OUTPUT_CASES``, ``FILE_CASES``, ``JSON_CASES`` and ``API_CASES``. A command-line case also checks that nothing
+was written. Generated inputs of the same kinds are in ``tests/fuzz`` (``python benchmarks/fuzz_inputs.py`` runs
+them at scale).
 """
 
 from __future__ import annotations

@@ -202,8 +202,13 @@ def test_a_search_that_finds_nothing_records_and_draws_where_it_got_stuck():
         assert f"closest: trailer axle at ({x:.2f}, {y:.2f}) m" in p.detail
     back = ManeuverResult.from_dict(json.loads(json.dumps(to_jsonable(r.to_dict()))))
     assert [p.closest for p in back.plans] == [p.closest for p in r.plans]
+    import matplotlib.pyplot as plt
+
     figure = motion_figure(r)
-    texts = [t.get_text() for ax in figure.axes for t in ax.texts]
+    try:
+        texts = [t.get_text() for ax in figure.axes for t in ax.texts]
+    finally:
+        plt.close(figure)  # no figure left open for the tests after
     assert texts.count("search stuck here") >= len(stuck)
     with pytest.raises(InputError, match="4 numbers"):
         ManeuverResult.from_dict({**back.to_dict(), "plans": [{**back.plans[0].to_dict(), "closest": [1.0, 2.0]}]})
