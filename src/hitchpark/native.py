@@ -47,6 +47,7 @@ __all__ = [
     "native",
     "resolved_compiler",
     "resolved_cxx_compiler",
+    "source_function",
 ]
 
 #: Measured on the full OCP: -O1 compiles in ~4.5 s and runs as fast as -O2 (~8 s); -O0 runs 1.5x slower.
@@ -245,6 +246,19 @@ def load_source(name: str, source: Path, load: Callable[[Path], Any]) -> Any:
         return True
 
     return load_cached(name, _key(text, ["source", name, "-ffp-contract=off"]), build, load)
+
+
+def source_function(name: str, source: Path, symbol: str, argtypes: Sequence[Any]) -> Any:
+    """The C function ``symbol`` (returning an ``int``) of the plain C file ``source``, compiled and loaded as
+    :func:`load_source` does, with its argument types set: None where nothing compiles or loads."""
+
+    def load(library: Path) -> Any:
+        function = getattr(ctypes.CDLL(str(library)), symbol)
+        function.restype = ctypes.c_int
+        function.argtypes = list(argtypes)
+        return function
+
+    return load_source(name, source, load)
 
 
 class LibraryCall:

@@ -45,7 +45,7 @@ from ..model.geometry import body_corners
 from ..model.scene import Scene
 from ..model.state import Pose, to_goal_frame
 from ..model.vehicle import VehicleTrailer
-from ..native import jit_available, load_source
+from ..native import jit_available, source_function
 
 __all__ = [
     "REACH_M",
@@ -130,14 +130,12 @@ def _kernel(compiling: bool, cache: str | None) -> Any:
     """The compiled function, or None where nothing compiles (per compilation switch and cache folder)."""
     if not compiling:
         return None
-
-    def load(library: Path) -> Any:
-        function = ctypes.CDLL(str(library)).hp_separating_lines
-        function.restype = ctypes.c_int
-        function.argtypes = [_INT, _INT, _PTR, _INT, _PTR, ctypes.c_int, _PTR, ctypes.c_int, _PTR, _PTR, _PTR]
-        return function
-
-    return load_source("separating_lines", SEPARATING_LINES_SOURCE, load)
+    return source_function(
+        "separating_lines",
+        SEPARATING_LINES_SOURCE,
+        "hp_separating_lines",
+        [_INT, _INT, _PTR, _INT, _PTR, ctypes.c_int, _PTR, ctypes.c_int, _PTR, _PTR, _PTR],
+    )
 
 
 def prepare_lines() -> bool:

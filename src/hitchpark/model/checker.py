@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from ..native import jit_available, load_source
+from ..native import jit_available, source_function
 from .geometry import tolerant_corners
 from .scene import Scene
 from .vehicle import VehicleTrailer
@@ -39,14 +39,12 @@ def _kernel(compiling: bool, cache: str | None) -> Any:
     """The compiled distances, or None where nothing compiles (per compilation switch and cache folder)."""
     if not compiling:
         return None
-
-    def load(library: Path) -> Any:
-        function = ctypes.CDLL(str(library)).hp_scene_clearances
-        function.restype = ctypes.c_int
-        function.argtypes = [_INT, _INT, _PTR, _PTR, _PTR, _INT, _PTR, _PTR, _PTR, _INT, _PTR, _PTR]
-        return function
-
-    return load_source("distance", DISTANCE_SOURCE, load)
+    return source_function(
+        "distance",
+        DISTANCE_SOURCE,
+        "hp_scene_clearances",
+        [_INT, _INT, _PTR, _PTR, _PTR, _INT, _PTR, _PTR, _PTR, _INT, _PTR, _PTR],
+    )
 
 
 def prepare_distances() -> bool:

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..model.geometry import body_reaches
 from ..model.vehicle import VehicleTrailer
-from ..native import jit_available, load_source
+from ..native import jit_available, source_function
 from .raster import DistanceGrid
 
 __all__ = ["GROUP_M", "POINT_SPACING", "Discs", "prepare_discs"]
@@ -197,22 +197,18 @@ DISCS_SOURCE = Path(__file__).with_name("discs.c")
 
 _INT, _PTR, _REAL = ctypes.c_longlong, ctypes.c_void_p, ctypes.c_double
 
+#: hp_disc_margins' arguments, in order (see ``discs.c``).
+_DISC_ARGS = [_INT, _INT, _PTR, _PTR, _PTR, _INT, _PTR, _PTR, _INT, _PTR, _PTR, _PTR, _PTR, _PTR, _PTR]
+_DISC_ARGS += [_INT, _INT, _REAL, _REAL, _REAL, _REAL, _REAL, _INT, _PTR, _PTR, _PTR, _PTR, _PTR]
+_DISC_ARGS += [_PTR, _PTR, _PTR, _PTR, _PTR]
+
 
 @functools.lru_cache(maxsize=8)
 def _kernel(compiling: bool, cache: str | None) -> Any:
     """The compiled check, or None where nothing compiles (per compilation switch and cache folder)."""
     if not compiling:
         return None
-
-    def load(library: Path) -> Any:
-        function = ctypes.CDLL(str(library)).hp_disc_margins
-        function.restype = ctypes.c_int
-        function.argtypes = [_INT, _INT, _PTR, _PTR, _PTR, _INT, _PTR, _PTR, _INT, _PTR, _PTR, _PTR, _PTR, _PTR, _PTR]
-        function.argtypes += [_INT, _INT, _REAL, _REAL, _REAL, _REAL, _REAL, _INT, _PTR, _PTR, _PTR, _PTR, _PTR]
-        function.argtypes += [_PTR, _PTR, _PTR, _PTR, _PTR]
-        return function
-
-    return load_source("discs", DISCS_SOURCE, load)
+    return source_function("discs", DISCS_SOURCE, "hp_disc_margins", _DISC_ARGS)
 
 
 def prepare_discs() -> bool:
