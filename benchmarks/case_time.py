@@ -25,12 +25,12 @@ from typing import Any
 
 import numpy as np
 
-import hitchpark.control.generated as generated
-import hitchpark.control.reference as reference
 import hitchpark.model.plant as plant
+import hitchpark.ocp.reference as reference
 import hitchpark.planning.endgame as endgame
 import hitchpark.planning.motion as motion
 import hitchpark.planning.search as search
+import hitchpark.solvers.generated as generated
 from hitchpark.app.sweep import build_config, controller_for, draw_starts
 from hitchpark.control.nmpc import FullNMPC
 from hitchpark.maneuver.process import park

@@ -7,9 +7,9 @@ For each horizon N, records the problems the default controller of ``OCP`` (``pa
 closed-loop starts, solves each with the in-process ``fatrop`` route (fatrop's own start; the default
 ``fatrop_c`` is the same solver generated to C) and prints the iterations (median, mean, p90, max,
 failures); then the generated route's own iterations, from the multipliers the controller started each
-problem from (its warm start, :mod:`hitchpark.control.generated`) and from fatrop's own start; its
+problem from (its warm start, :mod:`hitchpark.solvers.generated`) and from fatrop's own start; its
 median time per call and per iteration (as the controller builds it: the NLP's functions stage by stage,
-:mod:`hitchpark.control.stagewise`), and what each of CasADi's whole-horizon NLP functions costs per call
+:mod:`hitchpark.solvers.stagewise`), and what each of CasADi's whole-horizon NLP functions costs per call
 inside the solver (the in-process route with its functions compiled, CasADi's own timings): the
 Lagrangian's Hessian and the constraints' Jacobian are evaluated once an iteration.
 
@@ -32,9 +32,9 @@ from typing import Any
 import numpy as np
 
 from hitchpark.app.bench import BENCH_OCPS, _time_route, own_problems, record_problems
-from hitchpark.control.compiled import compiled_nlpsol
-from hitchpark.control.solvers import ROUTES, make_solver, quiet_stderr
 from hitchpark.model import VehicleTrailer
+from hitchpark.solvers.compiled import compiled_nlpsol
+from hitchpark.solvers.registry import ROUTES, make_solver, quiet_stderr
 
 #: The NLP's functions a fatrop iteration evaluates, as CasADi names them in a solver's statistics.
 FUNCTIONS = ("nlp_hess_l", "nlp_jac_g", "nlp_g", "nlp_grad_f", "nlp_f")

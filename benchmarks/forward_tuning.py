@@ -19,7 +19,7 @@ import numpy as np
 from hitchpark.control import TrailerNMPC
 from hitchpark.maneuver import ManeuverSettings, builtin_scenarios, park
 from hitchpark.model import VehicleTrailer
-from hitchpark.sim import State
+from hitchpark.model.simulate import State
 
 
 def starts() -> list[State]:

@@ -16,8 +16,8 @@ import argparse
 from dataclasses import replace
 
 from hitchpark.app.realtime import run_realtime
-from hitchpark.control.solvers import ROUTES
 from hitchpark.maneuver.scenario import builtin_scenario
+from hitchpark.solvers.registry import ROUTES
 
 
 def main() -> None:

@@ -20,8 +20,8 @@ import time
 import numpy as np
 
 from hitchpark.app.bench import BENCH_OCPS, own_problems, record_problems
-from hitchpark.control.solvers import make_solver
 from hitchpark.model import VehicleTrailer
+from hitchpark.solvers.registry import make_solver
 
 
 def main() -> None:

@@ -61,9 +61,11 @@ def main() -> None:
                 t0 = time.perf_counter()
                 least, row = swept_clearance(vehicle, scene, states, max_step_m=step)
                 times.append(time.perf_counter() - t0)
-            print(f"{label} ({len(scene.obstacles)} obstacles, an area), max_step_m {step:g}: {n} sub-samples, "
-                  f"least clearance {least:.3f} m at row {row}; best {1000 * min(times):.1f} ms, "
-                  f"median {1000 * statistics.median(times):.1f} ms")
+            print(
+                f"{label} ({len(scene.obstacles)} obstacles, an area), max_step_m {step:g}: {n} sub-samples, "
+                f"least clearance {least:.3f} m at row {row}; best {1000 * min(times):.1f} ms, "
+                f"median {1000 * statistics.median(times):.1f} ms"
+            )
 
 
 if __name__ == "__main__":

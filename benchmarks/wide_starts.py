@@ -20,7 +20,7 @@ import numpy as np
 from hitchpark.control import TrailerNMPC
 from hitchpark.maneuver import park
 from hitchpark.model import VehicleTrailer
-from hitchpark.sim import State
+from hitchpark.model.simulate import State
 
 
 def main(n: int = 150) -> None:

@@ -40,7 +40,6 @@ def sim(*extra: str, **values: str) -> list[str]:
     return [*argv, *extra, "--json", "{out}/s.json"]
 
 
-
 def run_cli(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
     """Run the command in-process; its exit status and its standard error."""
     try:
@@ -78,30 +77,50 @@ CLI_CASES: list[tuple[str, list[str], str]] = [
     ("run of more than a day", sim(duration="1e9"), "steps"),
     ("non-positive length", sim("--wheelbase", "-1"), "wheelbase"),
     ("absurd length", sim("--trailer-length", "1e308"), "trailer_length"),
-    ("L_H = 0 where the inverse kinematics need it", ["park", "--start", "10,3,0,0", "--hitch-offset", "0",
-                                                      "--out", "{out}"], "hitch_offset"),
+    (
+        "L_H = 0 where the inverse kinematics need it",
+        ["park", "--start", "10,3,0,0", "--hitch-offset", "0", "--out", "{out}"],
+        "hitch_offset",
+    ),
     ("case count out of range", ["sweep", "--n", "0", "--seed", "1", "--out", "{out}/s.jsonl"], "n must be"),
     ("negative seed", ["sweep", "--n", "2", "--seed", "-1", "--out", "{out}/s.jsonl"], "seed"),
-    ("malformed region", ["sweep", "--n", "2", "--seed", "1", "--region", "x=5", "--out", "{out}/s.jsonl"],
-     "region"),
-    ("region past the jackknife limit", ["sweep", "--n", "2", "--seed", "1", "--region", "hitch=-80:80",
-                                         "--out", "{out}/s.jsonl"], "hitch"),
-    ("worker count out of range", ["sweep", "--n", "2", "--seed", "1", "--workers", "0", "--out", "{out}/s.jsonl"],
-     "workers"),
+    ("malformed region", ["sweep", "--n", "2", "--seed", "1", "--region", "x=5", "--out", "{out}/s.jsonl"], "region"),
+    (
+        "region past the jackknife limit",
+        ["sweep", "--n", "2", "--seed", "1", "--region", "hitch=-80:80", "--out", "{out}/s.jsonl"],
+        "hitch",
+    ),
+    (
+        "worker count out of range",
+        ["sweep", "--n", "2", "--seed", "1", "--workers", "0", "--out", "{out}/s.jsonl"],
+        "workers",
+    ),
     ("missing required option", ["park", "--start", "10,3,0,0"], "required"),
     ("unknown option", ["park", "--start", "10,3,0,0", "--out", "{out}", "--fast"], "unrecognized"),
     ("not an integer", ["sweep", "--n", "2.5", "--seed", "1", "--out", "{out}/s.jsonl"], "invalid int"),
-    ("same file for two outputs", ["sweep", "--n", "2", "--seed", "1", "--out", "{out}/s.jsonl",
-                                   "--json", "{out}/s.jsonl"], "different files"),
+    (
+        "same file for two outputs",
+        ["sweep", "--n", "2", "--seed", "1", "--out", "{out}/s.jsonl", "--json", "{out}/s.jsonl"],
+        "different files",
+    ),
     ("empty output path", ["park", "--start", "10,3,0,0", "--out", ""], "--out is empty"),
-    ("map of an unknown image format", ["sweep", "--n", "2", "--seed", "1", "--out", "{out}/s.jsonl",
-                                        "--map", "{out}/m.txt"], "must end in .png"),
+    (
+        "map of an unknown image format",
+        ["sweep", "--n", "2", "--seed", "1", "--out", "{out}/s.jsonl", "--map", "{out}/m.txt"],
+        "must end in .png",
+    ),
     ("unknown suite", ["reproduce", "--suite", "all", "--out", "{out}"], "--suite must be one of"),
     ("unknown built-in scenario", ["park", "--scenario", "garage", "--out", "{out}"], "nor a built-in scenario"),
-    ("sweep over a scenario without a start region", ["sweep", "--scenario", "parallel", "--n", "2", "--seed",
-                                                       "1", "--out", "{out}/s.jsonl"], "has no [start_region]"),
-    ("region and scenario both", ["sweep", "--scenario", "bay", "--region", "x=1:2", "--n", "2", "--seed", "1",
-                                  "--out", "{out}/s.jsonl"], "not both"),
+    (
+        "sweep over a scenario without a start region",
+        ["sweep", "--scenario", "parallel", "--n", "2", "--seed", "1", "--out", "{out}/s.jsonl"],
+        "has no [start_region]",
+    ),
+    (
+        "region and scenario both",
+        ["sweep", "--scenario", "bay", "--region", "x=1:2", "--n", "2", "--seed", "1", "--out", "{out}/s.jsonl"],
+        "not both",
+    ),
 ]
 
 
@@ -134,12 +153,16 @@ OUTPUT_CASES: list[tuple[str, Callable[[Path], None], list[str], str]] = [
 def test_bad_output_paths(tmp_path, capsys, make, argv, match):
     path = tmp_path / "target"
     make(path)
-    before = {p: (p.lstat().st_mode, p.read_bytes() if p.is_file() and not p.is_symlink() else b"")
-              for p in tmp_path.rglob("*")}
+    before = {
+        p: (p.lstat().st_mode, p.read_bytes() if p.is_file() and not p.is_symlink() else b"")
+        for p in tmp_path.rglob("*")
+    }
     code, err = run_cli([a.replace("{path}", str(path)) for a in argv], capsys)
     assert_refused(code, err, match)
-    after = {p: (p.lstat().st_mode, p.read_bytes() if p.is_file() and not p.is_symlink() else b"")
-             for p in tmp_path.rglob("*")}
+    after = {
+        p: (p.lstat().st_mode, p.read_bytes() if p.is_file() and not p.is_symlink() else b"")
+        for p in tmp_path.rglob("*")
+    }
     assert after == before  # nothing replaced, nothing written through a link
 
 
@@ -171,13 +194,24 @@ FILE_CASES: list[tuple[str, str, str, str]] = [
     ("name that is not a folder name", 'name = "../up"\n' + START_TOML, "--scenario", "name must be"),
     ("setting past its upper bound", START_TOML + "[forward]\nspeed = 50.0\n", "--scenario", "forward.speed"),
     ("noise past its bound", "hitch_noise_std_deg = 90.0\n", "--plant", "plant.hitch_noise_std_deg"),
-    ("solver option CasADi refuses, in a file",
-     START_TOML + "[nmpc]\nkind = 'paper'\nsolver = 'sqp'\nsolver_options = {max_iter = 'x'}\n", "--scenario",
-     "illegal type"),
-    ("self-intersecting obstacle", START_TOML + "[[obstacles]]\npolygon = [[0, 0], [1, 1], [1, 0], [0, 1]]\n",
-     "--scenario", "polygon"),
-    ("start inside an obstacle", START_TOML + "[[obstacles]]\nname = 'shed'\n"
-     "polygon = [[9, 3], [11, 3], [11, 4], [9, 4]]\n", "--scenario", "shed"),
+    (
+        "solver option CasADi refuses, in a file",
+        START_TOML + "[nmpc]\nkind = 'paper'\nsolver = 'sqp'\nsolver_options = {max_iter = 'x'}\n",
+        "--scenario",
+        "illegal type",
+    ),
+    (
+        "self-intersecting obstacle",
+        START_TOML + "[[obstacles]]\npolygon = [[0, 0], [1, 1], [1, 0], [0, 1]]\n",
+        "--scenario",
+        "polygon",
+    ),
+    (
+        "start inside an obstacle",
+        START_TOML + "[[obstacles]]\nname = 'shed'\npolygon = [[9, 3], [11, 3], [11, 4], [9, 4]]\n",
+        "--scenario",
+        "shed",
+    ),
     ("missing file", None, "--vehicle", "cannot read"),  # type: ignore[list-item]
 ]
 
@@ -265,23 +299,33 @@ API_CASES: list[tuple[str, Callable[[], Any], str]] = [
     ("NaN yaw of a state", lambda: hitchpark.State(0.0, 0.0, math.nan, 0.0), "yaw must be finite"),
     ("state beyond the coordinate bound", lambda: hitchpark.State(0.0, 1e6, 0.0, 0.0), "y must be"),
     ("state yaw of ten turns and more", lambda: hitchpark.State(0.0, 0.0, 64.0, 0.0), "yaw must be"),
-    ("NaN angle to the inverse kinematics", lambda: hitchpark.virtual_steer_bounds(V, math.nan, 0.5),
-     "hitch_angle must be finite"),
-    ("infinite front steer to Eq. (56)", lambda: hitchpark.virtual_steer_from_front(V, 0.1, math.inf),
-     "front_steer must be finite"),
-    ("string angle to the inverse kinematics", lambda: hitchpark.front_steer_from_virtual(V, "0.1", 0.0),
-     "hitch_angle must be numbers"),
+    (
+        "NaN angle to the inverse kinematics",
+        lambda: hitchpark.virtual_steer_bounds(V, math.nan, 0.5),
+        "hitch_angle must be finite",
+    ),
+    (
+        "infinite front steer to Eq. (56)",
+        lambda: hitchpark.virtual_steer_from_front(V, 0.1, math.inf),
+        "front_steer must be finite",
+    ),
+    (
+        "string angle to the inverse kinematics",
+        lambda: hitchpark.front_steer_from_virtual(V, "0.1", 0.0),
+        "hitch_angle must be numbers",
+    ),
     ("virtual limit past 90 deg", lambda: hitchpark.virtual_steer_bounds(V, 0.1, 2.0), "virtual_limit"),
     ("yaw of 1e300 to a controller step", lambda: TrailerNMPC(V).step(0.0, 0.0, 1e300, 0.0), "yaw"),
     ("controller of the other kind", lambda: TrailerNMPC(V, NMPCSettings()), "needs nmpc.kind 'paper'"),
     ("forward speed past 30 m/s", lambda: PurePursuitSettings(speed=50.0), "forward.speed"),
     ("maneuver time past a day", lambda: SuccessCriteria(max_time=1e300), "success.max_time"),
     ("length of 1e308", lambda: hitchpark.VehicleTrailer(wheelbase=1e308), "wheelbase must be"),
-    ("solver options of the wrong shape", lambda: NMPCSettings(solver_options={"tol": object()}),
-     "solver_options.tol"),
-    ("solver option CasADi refuses",
-     lambda: TrailerNMPC(V, NMPCSettings(kind="paper", solver="sqp", solver_options={"qpsol": "x"})),
-     "not accepted by sqp: Plugin 'x' is not found"),
+    ("solver options of the wrong shape", lambda: NMPCSettings(solver_options={"tol": object()}), "solver_options.tol"),
+    (
+        "solver option CasADi refuses",
+        lambda: TrailerNMPC(V, NMPCSettings(kind="paper", solver="sqp", solver_options={"qpsol": "x"})),
+        "not accepted by sqp: Plugin 'x' is not found",
+    ),
     ("plant of the wrong type", lambda: park(V, START, plant="ideal"), "plant must be a PlantSettings"),
 ]
 

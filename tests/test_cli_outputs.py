@@ -182,7 +182,7 @@ def test_reproduce_merges_into_the_user_s_scenario_folders(tmp_path):
     (out / "report.md").write_text("the user's report")
     (out / "random").mkdir()
     (out / "random" / "maneuver.json").write_text("not this run's scenario: stays")
-    reproduce(out, scenarios=builtin_scenarios()[:1], plots=False, animation=False)
+    reproduce(out, scenarios=builtin_scenarios()[:1])
     tree = snapshot(out)
     assert sorted(tree) == [
         "parallel",

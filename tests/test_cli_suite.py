@@ -38,7 +38,18 @@ def test_suite_table_rows():
     open_space = park(VehicleTrailer(), start, settings=PAPER, plant=IDEAL, name="open")
     lines = suite_table([among, open_space]).splitlines()
     assert lines[0].split() == [
-        "scene", "parked", "path", "[m]", "switches", "min", "clear", "[m]", "planning", "[s]", "maneuver", "[s]"
+        "scene",
+        "parked",
+        "path",
+        "[m]",
+        "switches",
+        "min",
+        "clear",
+        "[m]",
+        "planning",
+        "[s]",
+        "maneuver",
+        "[s]",
     ]
     entry = summary_entry(among, "stone/maneuver.json")
     row = lines[2].split()

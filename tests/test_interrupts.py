@@ -23,8 +23,8 @@ from hitchpark.app.records import RecordWriter, scan_records
 from hitchpark.app.sweep import CaseTask, SweepConfig, run_case
 from hitchpark.app.workers import interrupts_deferred
 from hitchpark.cli import EXIT_INTERRUPTED, main
+from hitchpark.cli.interrupts import caused_by_interrupt
 from hitchpark.control import NMPCSettings
-from hitchpark.interrupts import caused_by_interrupt
 from hitchpark.maneuver import ManeuverSettings
 from hitchpark.model import PlantSettings
 

@@ -1,4 +1,4 @@
-"""Open-loop simulation and the trajectory record (hitchpark.sim)."""
+"""Open-loop simulation and the trajectory record (hitchpark.model.simulate)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 from hitchpark.io import to_jsonable
 from hitchpark.model import step_full
-from hitchpark.sim import BASE_COLUMNS, State, Trajectory, check_state, simulate
+from hitchpark.model.simulate import BASE_COLUMNS, State, Trajectory, check_state, simulate
 
 EXPECTED_COLUMNS = (
     "t",

@@ -1,4 +1,4 @@
-"""The inverse-kinematics validation study of Section 3.2 (hitchpark.studies)."""
+"""The inverse-kinematics validation study of Section 3.2 (hitchpark.app.ik_study)."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
+from hitchpark.app.ik_study import TABLE2_VEHICLE, default_virtual_profile, inverse_kinematics_study
 from hitchpark.io import to_jsonable
 from hitchpark.model import VehicleTrailer
-from hitchpark.studies import TABLE2_VEHICLE, default_virtual_profile, inverse_kinematics_study
 
 
 @pytest.fixture(scope="module")

@@ -22,7 +22,7 @@ from .model import (
     virtual_steer_bounds,
     virtual_steer_from_front,
 )
-from .sim import Trajectory, simulate
+from .model.simulate import Trajectory, simulate
 
 __version__ = "0.1.0"
 

@@ -12,14 +12,6 @@ from hypothesis import strategies as st
 
 from hitchpark import VehicleTrailer
 from hitchpark.control import NMPCSettings
-from hitchpark.control import clearance as clearance_module
-from hitchpark.control.clearance import (
-    REACH_M,
-    ClearanceConstraints,
-    convex_pieces,
-    separating_lines,
-    separating_lines_numpy,
-)
 from hitchpark.control.nmpc import COLD_ROUNDS, FullNMPC
 from hitchpark.control.receding import NLPProblem
 from hitchpark.model.collision import clearance
@@ -27,6 +19,14 @@ from hitchpark.model.geometry import body_corners
 from hitchpark.model.plant import Measurement
 from hitchpark.model.scene import Area, Obstacle, Scene
 from hitchpark.model.state import Pose, State, from_goal_frame
+from hitchpark.ocp import obstacles as clearance_module
+from hitchpark.ocp.obstacles import (
+    REACH_M,
+    ClearanceConstraints,
+    convex_pieces,
+    separating_lines,
+    separating_lines_numpy,
+)
 
 coordinate = st.floats(-4.0, 4.0)
 

@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from hitchpark import VehicleTrailer
-from hitchpark.control import NMPCSettings, compiled, make_nmpc
+from hitchpark.control import NMPCSettings, make_nmpc
 from hitchpark.model.plant import Measurement
 from hitchpark.model.state import Pose, State
+from hitchpark.solvers import compiled
 
 
 def _plans(controller, starts):

@@ -1,4 +1,4 @@
-"""The full-model NMPC (hitchpark.control.full_ocp, FullNMPC): limits on the whole horizon, goal, delay, failure."""
+"""The full-model NMPC (hitchpark.ocp.full, FullNMPC): limits on the whole horizon, goal, delay, failure."""
 
 from __future__ import annotations
 
@@ -139,8 +139,8 @@ def test_settings_per_kind_and_solver_options_in_equality():
 
 
 def test_the_first_prediction_step_lasts_the_nlps_last_parameter_and_weighs_its_part_of_a_step():
-    from hitchpark.control.full_ocp import FullParkingProblem
-    from hitchpark.control.transcription import MultipleShooting, SingleShooting
+    from hitchpark.ocp.full import FullParkingProblem
+    from hitchpark.solvers.transcription import MultipleShooting, SingleShooting
 
     problem = FullParkingProblem(V, SETTINGS)
     ms = MultipleShooting(problem)

@@ -1,4 +1,4 @@
-"""The trailer-parking OCP (Eqs. 47-57, hitchpark.control.ocp) and its transcriptions."""
+"""The trailer-parking OCP (Eqs. 47-57, hitchpark.ocp) and its transcriptions."""
 
 from __future__ import annotations
 

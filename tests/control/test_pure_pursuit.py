@@ -18,7 +18,7 @@ from hitchpark.control.pure_pursuit import (
 )
 from hitchpark.maneuver import ManeuverSettings, ProcessSettings, park
 from hitchpark.model import IDEAL, Pose, VehicleTrailer, full_rhs, rear_axle_pose, step_full
-from hitchpark.sim import State
+from hitchpark.model.simulate import State
 
 SETTINGS = PurePursuitSettings()
 GOALS = [Pose(), Pose(5.0, -3.0, math.radians(30.0)), Pose(-12.0, 4.0, math.radians(-135.0))]

@@ -1,4 +1,4 @@
-"""A planned path as the NMPC's reference (control.reference) and the tracking OCP (control.full_ocp)."""
+"""A planned path as the NMPC's reference (ocp.reference) and the tracking OCP (ocp.full)."""
 
 from __future__ import annotations
 
@@ -10,11 +10,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hitchpark.control.full_ocp import FullParkingProblem
-from hitchpark.control.ocp import NMPCSettings
-from hitchpark.control.reference import BLEND_M, PathReference
 from hitchpark.model import VehicleTrailer
 from hitchpark.model.state import Pose
+from hitchpark.ocp.full import FullParkingProblem
+from hitchpark.ocp.reference import BLEND_M, PathReference
+from hitchpark.ocp.settings import NMPCSettings
 
 V = VehicleTrailer()
 

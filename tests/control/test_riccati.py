@@ -14,9 +14,9 @@ import pytest
 from hitchpark import VehicleTrailer
 from hitchpark.checks import InputError
 from hitchpark.control import NMPCSettings, TrailerNMPC, make_nmpc
-from hitchpark.control.full_ocp import STEER
-from hitchpark.control.generated import GeneratedNLP
-from hitchpark.control.solvers import make_solver, takes_free_initial
+from hitchpark.ocp.full import STEER
+from hitchpark.solvers.generated import GeneratedNLP
+from hitchpark.solvers.registry import make_solver, takes_free_initial
 
 
 def _riccati(controller, floor=None):
@@ -87,7 +87,11 @@ def test_riccati_corrector_takes_fewer_iterations_to_the_same_optimum(jit_cache,
     iterations, answers = {}, {}
     for corrector in (True, False):
         solver = make_solver(
-            "riccati_c", tr.nlp, list(tr.lbg == tr.ubg), {"corrector": corrector}, transcription=tr,
+            "riccati_c",
+            tr.nlp,
+            list(tr.lbg == tr.ubg),
+            {"corrector": corrector},
+            transcription=tr,
             dual_floor=controller.settings.dual_floor,
         )
         previous, iterations[corrector], answers[corrector] = None, [], []

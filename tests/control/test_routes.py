@@ -14,9 +14,9 @@ import pytest
 
 from hitchpark import VehicleTrailer
 from hitchpark.control import NMPCSettings, TrailerNMPC, make_nmpc
-from hitchpark.control.generated import GeneratedNLP
-from hitchpark.control.solvers import ROUTES, make_solver
 from hitchpark.maneuver.scenario import builtin_scenario
+from hitchpark.solvers.generated import GeneratedNLP
+from hitchpark.solvers.registry import ROUTES, make_solver
 
 
 def _problems(ocp, paper_problems, full_problems, obstacle_problems):
@@ -130,7 +130,7 @@ def test_generated_c_is_the_same_solver_cached_and_leaves_nothing_behind(jit_cac
     generated = make_solver("fatrop_c", tr.nlp, equality, transcription=tr)
     assert isinstance(generated, GeneratedNLP)
     (entry,) = cache.iterdir()
-    # The NLP's functions stage by stage are linked in (control/stagewise.py): their symbols are there.
+    # The NLP's functions stage by stage are linked in (solvers/stagewise.py): their symbols are there.
     (library,) = entry.glob("*.so")
     assert hasattr(ctypes.CDLL(str(library)), "hitchpark_fatrop_c_stage_hess_l")
     assert [p.suffix for p in entry.iterdir() if not p.name.startswith(".")] == [".so"]
@@ -217,8 +217,8 @@ def test_a_generated_sqp_laid_out_otherwise_is_not_built(jit_cache, tmp_path, mo
     status, serves instead."""
     import casadi as ca
 
-    from hitchpark.control import generated
-    from hitchpark.control.generated import _report_sqp_failure
+    from hitchpark.solvers import generated
+    from hitchpark.solvers.generated import _report_sqp_failure
 
     nlp, equality = _stalling_nlp()
     plugin, options = ROUTES["sqp_c"].factory(equality)

@@ -1,4 +1,4 @@
-"""The NLP's functions stage by stage (hitchpark.control.stagewise): CasADi's sparsity and numbers, for every
+"""The NLP's functions stage by stage (hitchpark.solvers.stagewise): CasADi's sparsity and numbers, for every
 OCP the controllers solve; refused where the layout is not theirs; linked into a generated solver only
 where its code has the expected hooks."""
 
@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from hitchpark.control import NMPCSettings, make_nmpc
-from hitchpark.control.generated import _link_stagewise
-from hitchpark.control.solvers import ROUTES
-from hitchpark.control.stagewise import ORACLE, _agree, stagewise_functions
 from hitchpark.maneuver.scenario import builtin_scenario
 from hitchpark.model import VehicleTrailer
+from hitchpark.solvers.generated import _link_stagewise
+from hitchpark.solvers.registry import ROUTES
+from hitchpark.solvers.stagewise import ORACLE, _agree, stagewise_functions
 
 
 def _solver(tr):

@@ -1,4 +1,4 @@
-"""The warm start of fatrop's multipliers (control/fatrop_warm.cpp): the shift of a solution's multipliers,
+"""The warm start of fatrop's multipliers (solvers/fatrop_warm.cpp): the shift of a solution's multipliers,
 the generated solver started from them, the controller that passes them on, and the build without it."""
 
 from __future__ import annotations
@@ -11,10 +11,10 @@ import pytest
 from hitchpark import VehicleTrailer
 from hitchpark.checks import InputError
 from hitchpark.control import NMPCSettings, make_nmpc
-from hitchpark.control.generated import GeneratedNLP
-from hitchpark.control.solvers import make_solver, takes_duals
 from hitchpark.maneuver import builtin_scenarios, park
 from hitchpark.maneuver.scenario import builtin_scenario
+from hitchpark.solvers.generated import GeneratedNLP
+from hitchpark.solvers.registry import make_solver, takes_duals
 
 
 def _recorded(kind: str, scenario: int, **nmpc):

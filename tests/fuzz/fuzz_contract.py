@@ -47,10 +47,10 @@ def _accept(*args: Any, **kwargs: Any) -> Any:
 WORK = (
     "hitchpark.maneuver.process.Plant",
     "hitchpark.app.report.run_scenario",
-    "hitchpark.app.report.render_maneuver",
+    "hitchpark.viz.maneuver.render_maneuver",
     "hitchpark.app.sweep.run_sweep",
-    "hitchpark.sim.step_full",
-    "hitchpark.studies.inverse_kinematics_study",
+    "hitchpark.model.simulate.step_full",
+    "hitchpark.app.ik_study.inverse_kinematics_study",
 )
 
 

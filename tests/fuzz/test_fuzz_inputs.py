@@ -27,40 +27,134 @@ from hitchpark.maneuver.result import ManeuverResult
 # --- values a user might type or a file might hold ---------------------------------------------------------
 
 NASTY_TEXT = st.sampled_from(
-    ["", " ", "nan", "NaN", "-nan", "inf", "-inf", "+inf", "infinity", "-Infinity", "1e308", "-1e308", "1e-320",
-     "0", "-0", "1e9", "-1e9", "abc", "1,2", "1,,2", "0x10", "1_000", "\uff19", "--", "-", "1e", ".", "1..2",
-     "3,4,5,6,7", "0,0,0", "10,3.5,0,0", "10,3.5,0,89", "-5,2,0,0", "x=5", "x=1:2:3", "hitch=-80:80", "yaw=a:b",
-     "x=16:4", "/dev/null", "\x00", "é", "1 2"]
+    [
+        "",
+        " ",
+        "nan",
+        "NaN",
+        "-nan",
+        "inf",
+        "-inf",
+        "+inf",
+        "infinity",
+        "-Infinity",
+        "1e308",
+        "-1e308",
+        "1e-320",
+        "0",
+        "-0",
+        "1e9",
+        "-1e9",
+        "abc",
+        "1,2",
+        "1,,2",
+        "0x10",
+        "1_000",
+        "\uff19",
+        "--",
+        "-",
+        "1e",
+        ".",
+        "1..2",
+        "3,4,5,6,7",
+        "0,0,0",
+        "10,3.5,0,0",
+        "10,3.5,0,89",
+        "-5,2,0,0",
+        "x=5",
+        "x=1:2:3",
+        "hitch=-80:80",
+        "yaw=a:b",
+        "x=16:4",
+        "/dev/null",
+        "\x00",
+        "é",
+        "1 2",
+    ]
 )
 TEXT = st.one_of(NASTY_TEXT, st.text(max_size=12), st.floats().map(repr), st.integers().map(str))
 
 JSON_SCALAR = st.one_of(
-    st.none(), st.booleans(), st.integers(min_value=-(10**20), max_value=10**20),
-    st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=8),
+    st.none(),
+    st.booleans(),
+    st.integers(min_value=-(10**20), max_value=10**20),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.text(max_size=8),
     st.sampled_from([1e308, -1e308, 5e-324, 0.0, -0.0, "0.5", "false", "true", "nan"]),
 )
-JSON_VALUE = st.recursive(JSON_SCALAR, lambda inner: st.lists(inner, max_size=4) | st.dictionaries(
-    st.text(max_size=6), inner, max_size=4), max_leaves=10)
+JSON_VALUE = st.recursive(
+    JSON_SCALAR,
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=6), inner, max_size=4),
+    max_leaves=10,
+)
 
 
 # --- command lines ----------------------------------------------------------------------------------------
 
+
 def _commands(out: str) -> dict[str, list[str]]:
     """A valid command line of each command, writing under ``out``."""
     return {
-        "simulate": ["simulate", "--start", "0,0,0,0", "--speed", "-1", "--steer", "5", "--duration", "1",
-                     "--dt", "0.1", "--wheelbase", "3", "--hitch-offset", "1", "--trailer-length", "2.5",
-                     "--json", f"{out}/s.json"],
+        "simulate": [
+            "simulate",
+            "--start",
+            "0,0,0,0",
+            "--speed",
+            "-1",
+            "--steer",
+            "5",
+            "--duration",
+            "1",
+            "--dt",
+            "0.1",
+            "--wheelbase",
+            "3",
+            "--hitch-offset",
+            "1",
+            "--trailer-length",
+            "2.5",
+            "--json",
+            f"{out}/s.json",
+        ],
         "park": ["park", "--start", "10,3.5,0,0", "--goal", "0,0,0", "--out", f"{out}/park", "--no-plots"],
-        "sweep": ["sweep", "--n", "3", "--seed", "1", "--region", "x=4:16,y=-8:8,yaw=-90:90,hitch=-30:30",
-                  "--workers", "1", "--out", f"{out}/s.jsonl", "--json", f"{out}/sum.json"],
+        "sweep": [
+            "sweep",
+            "--n",
+            "3",
+            "--seed",
+            "1",
+            "--region",
+            "x=4:16,y=-8:8,yaw=-90:90,hitch=-30:30",
+            "--workers",
+            "1",
+            "--out",
+            f"{out}/s.jsonl",
+            "--json",
+            f"{out}/sum.json",
+        ],
         "reproduce": ["reproduce", "--out", f"{out}/rep", "--no-plots"],
         "ik-study": ["ik-study", "--out", f"{out}/ik", "--speed", "-1", "--no-plots"],
     }
 
 
-EXTRA_OPTIONS = ["--start", "--goal", "--speed", "--steer", "--duration", "--dt", "--n", "--seed", "--region",
-                 "--workers", "--wheelbase", "--hitch-offset", "--trailer-length", "--fast", "-x", "--dask"]
+EXTRA_OPTIONS = [
+    "--start",
+    "--goal",
+    "--speed",
+    "--steer",
+    "--duration",
+    "--dt",
+    "--n",
+    "--seed",
+    "--region",
+    "--workers",
+    "--wheelbase",
+    "--hitch-offset",
+    "--trailer-length",
+    "--fast",
+    "-x",
+    "--dask",
+]
 
 
 @st.composite
@@ -93,13 +187,50 @@ def test_generated_command_lines(tmp_path_factory, capsys, data):
 # --- TOML files -------------------------------------------------------------------------------------------
 
 TABLE_KEYS = {
-    "vehicle": ["wheelbase", "hitch_offset", "trailer_length", "max_steer", "max_hitch", "trailer_front",
-                "trailer_width", "max_steer_rate", "max_accel", "wheel"],
-    "plant": ["kind", "steer_rate_max", "steer_time_constant", "accel_max", "delay_steps", "hitch_noise_std_deg",
-              "hitch_bias_deg", "seed", "vehicle", "noise"],
-    "nmpc": ["kind", "dt", "prediction_dt", "horizon", "Q", "R", "P", "speed_min", "speed_max", "virtual_limit",
-             "stop_speed", "max_steps", "solver", "fallback_solver", "relaxed_solver", "transcription",
-             "solver_options", "jit"],
+    "vehicle": [
+        "wheelbase",
+        "hitch_offset",
+        "trailer_length",
+        "max_steer",
+        "max_hitch",
+        "trailer_front",
+        "trailer_width",
+        "max_steer_rate",
+        "max_accel",
+        "wheel",
+    ],
+    "plant": [
+        "kind",
+        "steer_rate_max",
+        "steer_time_constant",
+        "accel_max",
+        "delay_steps",
+        "hitch_noise_std_deg",
+        "hitch_bias_deg",
+        "seed",
+        "vehicle",
+        "noise",
+    ],
+    "nmpc": [
+        "kind",
+        "dt",
+        "prediction_dt",
+        "horizon",
+        "Q",
+        "R",
+        "P",
+        "speed_min",
+        "speed_max",
+        "virtual_limit",
+        "stop_speed",
+        "max_steps",
+        "solver",
+        "fallback_solver",
+        "relaxed_solver",
+        "transcription",
+        "solver_options",
+        "jit",
+    ],
     "forward": ["lookahead", "speed", "hitch_threshold", "distance_threshold", "max_distance", "length_tolerance"],
     "success": ["distance", "orientation", "hitch", "max_stages", "max_time"],
     "start": ["x", "y", "yaw_deg", "hitch_deg", "z"],
@@ -107,12 +238,38 @@ TABLE_KEYS = {
 }
 
 TOML_SCALAR = st.one_of(
-    st.booleans(), st.integers(min_value=-(2**63), max_value=2**63 - 1), st.floats(), st.text(max_size=8),
-    st.sampled_from([0, 1, -1, 0.5, 1e308, -1e308, "fatrop", "ipopt", "paper", "full", "ideal", "realistic",
-                     "multiple_shooting", 10, 10.5, 3.0, 70.0, 90.0]),
+    st.booleans(),
+    st.integers(min_value=-(2**63), max_value=2**63 - 1),
+    st.floats(),
+    st.text(max_size=8),
+    st.sampled_from(
+        [
+            0,
+            1,
+            -1,
+            0.5,
+            1e308,
+            -1e308,
+            "fatrop",
+            "ipopt",
+            "paper",
+            "full",
+            "ideal",
+            "realistic",
+            "multiple_shooting",
+            10,
+            10.5,
+            3.0,
+            70.0,
+            90.0,
+        ]
+    ),
 )
-TOML_VALUE = st.one_of(TOML_SCALAR, st.lists(TOML_SCALAR, max_size=7),
-                       st.dictionaries(st.sampled_from(["max_iter", "tol", "x"]), TOML_SCALAR, max_size=2))
+TOML_VALUE = st.one_of(
+    TOML_SCALAR,
+    st.lists(TOML_SCALAR, max_size=7),
+    st.dictionaries(st.sampled_from(["max_iter", "tol", "x"]), TOML_SCALAR, max_size=2),
+)
 
 
 def toml_value(value: Any) -> str:
@@ -141,10 +298,14 @@ def toml_file(draw: st.DrawFn) -> tuple[str, str]:
     if option in ("--vehicle", "--plant"):  # the fields at the top level
         text = _table_body(draw, option[2:])
     else:
-        tables = ["goal", "vehicle", "plant", "nmpc", "forward", "success"] if option == "--scenario" else [
-            "nmpc", "forward", "success"]
-        blocks = [f"[{t}]\n{_table_body(draw, t)}" for t in draw(st.lists(st.sampled_from(tables), max_size=3,
-                                                                            unique=True))]
+        tables = (
+            ["goal", "vehicle", "plant", "nmpc", "forward", "success"]
+            if option == "--scenario"
+            else ["nmpc", "forward", "success"]
+        )
+        blocks = [
+            f"[{t}]\n{_table_body(draw, t)}" for t in draw(st.lists(st.sampled_from(tables), max_size=3, unique=True))
+        ]
         if option == "--scenario":
             good_start = "[start]\nx = 10.0\ny = 3.5\nyaw_deg = 0.0\nhitch_deg = 0.0"
             blocks.insert(0, draw(st.sampled_from([good_start, good_start, f"[start]\n{_table_body(draw, 'start')}"])))
@@ -173,11 +334,15 @@ def test_generated_files(tmp_path_factory, capsys, file):
 
 # --- saved maneuvers (plot) -------------------------------------------------------------------------------
 
+
 @pytest.fixture(scope="module")
 def saved() -> dict[str, Any]:
-    result = park(hitchpark.VehicleTrailer(), hitchpark.State(10.0, 3.5, 0.0, 0.0),
-                  settings=ManeuverSettings(nmpc=NMPCSettings(kind="paper")),
-                  plant=hitchpark.PlantSettings(kind="ideal"))
+    result = park(
+        hitchpark.VehicleTrailer(),
+        hitchpark.State(10.0, 3.5, 0.0, 0.0),
+        settings=ManeuverSettings(nmpc=NMPCSettings(kind="paper")),
+        plant=hitchpark.PlantSettings(kind="ideal"),
+    )
     data = json.loads(json.dumps(to_jsonable(result.to_dict())))
     for name, column in data["trajectory"].items():  # short columns keep each example fast
         data["trajectory"][name] = column[:40]
@@ -229,14 +394,20 @@ def test_generated_saved_maneuvers(tmp_path_factory, capsys, saved, data):
     path = folder / "maneuver.json"
     path.write_text(json.dumps(spoilt), encoding="utf-8")  # NaN and Infinity as JSON readers accept them
     check_call("saved maneuvers (API)", lambda: ManeuverResult.from_dict(json.loads(path.read_text())))
-    check_command("saved maneuvers (plot)", ["plot", str(path), "--no-animation", "--out", f"{folder}/fig"], folder,
-                  capsys)
+    check_command(
+        "saved maneuvers (plot)", ["plot", str(path), "--no-animation", "--out", f"{folder}/fig"], folder, capsys
+    )
 
 
 # --- library calls ----------------------------------------------------------------------------------------
 
-ANY = st.one_of(JSON_SCALAR, st.tuples(JSON_SCALAR, JSON_SCALAR), st.just(object()),
-                st.just(hitchpark.Pose()), st.just(hitchpark.State(0.0, 0.0, 0.0, 0.0)))
+ANY = st.one_of(
+    JSON_SCALAR,
+    st.tuples(JSON_SCALAR, JSON_SCALAR),
+    st.just(object()),
+    st.just(hitchpark.Pose()),
+    st.just(hitchpark.State(0.0, 0.0, 0.0, 0.0)),
+)
 NUMBER = st.one_of(st.floats(), st.integers(-(10**6), 10**6), st.sampled_from([0.1, -0.1, 0.5, 1.0, 2.0]), ANY)
 
 
@@ -256,11 +427,21 @@ API_CALLS = st.one_of(
     st.tuples(NUMBER, NUMBER).map(lambda a: lambda: hitchpark.virtual_steer_from_front(hitchpark.VehicleTrailer(), *a)),
     st.tuples(NUMBER, NUMBER).map(lambda a: lambda: hitchpark.virtual_steer_bounds(hitchpark.VehicleTrailer(), *a)),
     st.tuples(NUMBER, NUMBER, NUMBER).map(
-        lambda a: lambda: hitchpark.rear_speed_from_trailer_speed(hitchpark.VehicleTrailer(), *a)),
+        lambda a: lambda: hitchpark.rear_speed_from_trailer_speed(hitchpark.VehicleTrailer(), *a)
+    ),
     st.tuples(ANY, ANY, ANY).map(lambda a: lambda: park(a[0], a[1], a[2])),
     st.tuples(NUMBER, NUMBER, NUMBER, NUMBER).map(
-        lambda a: lambda: hitchpark.simulate(hitchpark.VehicleTrailer(), hitchpark.State(0.0, 0.0, 0.0, 0.0),
-                                             a[0], a[1], _short(a[2], min), _short(a[3], max))),
+        lambda a: (
+            lambda: hitchpark.simulate(
+                hitchpark.VehicleTrailer(),
+                hitchpark.State(0.0, 0.0, 0.0, 0.0),
+                a[0],
+                a[1],
+                _short(a[2], min),
+                _short(a[3], max),
+            )
+        )
+    ),
 )
 
 

@@ -11,8 +11,6 @@ import pytest
 
 from hitchpark.checks import InputError
 from hitchpark.control.nmpc import FullNMPC, make_nmpc
-from hitchpark.control.ocp import NMPCSettings
-from hitchpark.control.reference import PathReference
 from hitchpark.io import to_jsonable
 from hitchpark.maneuver import ManeuverResult, ManeuverSettings, ProcessSettings, park
 from hitchpark.maneuver.process import direction_segments_of
@@ -22,6 +20,8 @@ from hitchpark.model import VehicleTrailer
 from hitchpark.model.plant import Measurement
 from hitchpark.model.scene import Obstacle, Scene
 from hitchpark.model.state import Pose, State
+from hitchpark.ocp.reference import PathReference
+from hitchpark.ocp.settings import NMPCSettings
 
 V = VehicleTrailer()
 

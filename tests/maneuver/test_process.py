@@ -42,7 +42,7 @@ from hitchpark.model import (
     virtual_steer_bounds,
     virtual_steer_from_front,
 )
-from hitchpark.sim import State
+from hitchpark.model.simulate import State
 
 COMMAND_COLUMNS = ("rear_speed", "front_steer", "trailer_speed", "virtual_steer")
 

@@ -56,8 +56,12 @@ def test_scene_file_loads(tmp_path):
         Area([[-20.0, -10.0], [30.0, -10.0], [30.0, 10.0], [-20.0, 10.0]]),
     )
     assert sc.start_region == StartRegion((8.0, 12.0), (2.0, 5.0), (-10.0, 10.0), (-5.0, 5.0))
-    assert sc.start_region.to_dict() == {"x": [8.0, 12.0], "y": [2.0, 5.0], "yaw_deg": [-10.0, 10.0],
-                                         "hitch_deg": [-5.0, 5.0]}
+    assert sc.start_region.to_dict() == {
+        "x": [8.0, 12.0],
+        "y": [2.0, 5.0],
+        "yaw_deg": [-10.0, 10.0],
+        "hitch_deg": [-5.0, 5.0],
+    }
     assert StartRegion.from_dict(sc.start_region.to_dict()) == sc.start_region
     assert hash(sc) == hash(load_scenario(write(tmp_path, SCENE_FILE)))  # a scenario still hashes by value
 
@@ -80,15 +84,23 @@ def with_obstacle(polygon: str, extra: str = "") -> str:
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        (with_obstacle("[[9.5, 3.0], [10.5, 3.0], [10.5, 4.0], [9.5, 4.0]]"),
-         r'start collides: the trailer touches obstacles\[0\] \("bin"\); the start must be at least '
-         r"success\.min_clearance_m = 0\.2 m clear"),
-        (with_obstacle("[[8.7, 3.0], [8.9, 3.0], [8.9, 3.2], [8.7, 3.2]]"),  # 0.1 m behind the trailer
-         r'start collides: the trailer is 0\.1\d* m from obstacles\[0\] \("bin"\)'),
-        (START + "[area]\nboundary = [[0.0, 0.0], [15.0, 0.0], [15.0, 4.0], [0.0, 4.0]]\n",
-         "start collides: the vehicle reaches or leaves the area boundary"),  # the wider body, 0.075 m out
-        (START + "[area]\nboundary = [[100.0, 0.0], [115.0, 0.0], [115.0, 10.0], [100.0, 10.0]]\n",
-         "leaves the area boundary"),
+        (
+            with_obstacle("[[9.5, 3.0], [10.5, 3.0], [10.5, 4.0], [9.5, 4.0]]"),
+            r'start collides: the trailer touches obstacles\[0\] \("bin"\); the start must be at least '
+            r"success\.min_clearance_m = 0\.2 m clear",
+        ),
+        (
+            with_obstacle("[[8.7, 3.0], [8.9, 3.0], [8.9, 3.2], [8.7, 3.2]]"),  # 0.1 m behind the trailer
+            r'start collides: the trailer is 0\.1\d* m from obstacles\[0\] \("bin"\)',
+        ),
+        (
+            START + "[area]\nboundary = [[0.0, 0.0], [15.0, 0.0], [15.0, 4.0], [0.0, 4.0]]\n",
+            "start collides: the vehicle reaches or leaves the area boundary",
+        ),  # the wider body, 0.075 m out
+        (
+            START + "[area]\nboundary = [[100.0, 0.0], [115.0, 0.0], [115.0, 10.0], [100.0, 10.0]]\n",
+            "leaves the area boundary",
+        ),
     ],
 )
 def test_a_start_that_collides_is_refused(tmp_path, text, message):
@@ -129,8 +141,10 @@ REGION = "[start_region]\nx = [8.0, 12.0]\ny = [2.0, 5.0]\nyaw_deg = [-10.0, 10.
         (REGION.replace("y = [2.0, 5.0]", "y = [0.0, nan]"), r"start_region\.y must be finite"),
         (REGION.replace("x = [8.0, 12.0]", "x = [0.0, 1e300]"), r"start_region\.x must be >= -100000"),
         (REGION.replace("yaw_deg = [-10.0, 10.0]", "yaw_deg = [0.0, 4000.0]"), r"start_region\.yaw_deg must be"),
-        (REGION.replace("hitch_deg = [-5.0, 5.0]", "hitch_deg = [-75.0, 0.0]"),
-         r"start_region\.hitch_deg must lie within \[-70, 70\] deg"),
+        (
+            REGION.replace("hitch_deg = [-5.0, 5.0]", "hitch_deg = [-75.0, 0.0]"),
+            r"start_region\.hitch_deg must lie within \[-70, 70\] deg",
+        ),
         ("start_region = 5\n", r"\[start_region\] must be a table"),
     ],
 )

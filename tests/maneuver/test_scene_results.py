@@ -37,9 +37,7 @@ def free() -> ManeuverResult:
 def top(free: ManeuverResult) -> float:
     """The largest y any body reaches in the free maneuver [m]."""
     v, states = free.plant_vehicle, free.trajectory.states()
-    return max(
-        float(np.max(body_outlines(v, *row)[key][:, 1])) for row in states for key in ("vehicle", "trailer")
-    )
+    return max(float(np.max(body_outlines(v, *row)[key][:, 1])) for row in states for key in ("vehicle", "trailer"))
 
 
 def ceiling(top: float, gap: float) -> Scene:

@@ -29,7 +29,7 @@ from hitchpark.model import (
     trailer_rhs,
     trailer_speed_from_rear_speed,
 )
-from hitchpark.sim import State, simulate
+from hitchpark.model.simulate import State, simulate
 
 
 def fit_circle(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:

@@ -94,8 +94,13 @@ BAD_POLYGONS = [
 
 @pytest.mark.parametrize(("case", "polygon", "message"), BAD_POLYGONS, ids=[c[0] for c in BAD_POLYGONS])
 def test_bad_polygons_refused_naming_the_obstacle(case, polygon, message):
-    data = {"obstacles": [{"name": "a", "polygon": SQUARE}, {"name": "b", "polygon": SQUARE},
-                          {"name": "parked car", "polygon": polygon}]}
+    data = {
+        "obstacles": [
+            {"name": "a", "polygon": SQUARE},
+            {"name": "b", "polygon": SQUARE},
+            {"name": "parked car", "polygon": polygon},
+        ]
+    }
     with pytest.raises(InputError) as err:
         Scene.from_dict(data)
     text = str(err.value)

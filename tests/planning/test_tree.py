@@ -162,8 +162,11 @@ def test_the_same_plan_on_a_loaded_machine():
         for h in hogs:
             h.join()
     assert quiet.status == loaded.status == "found"
-    assert (quiet.expanded, quiet.direction_switches, quiet.detail) == (loaded.expanded, loaded.direction_switches,
-                                                                         loaded.detail)
+    assert (quiet.expanded, quiet.direction_switches, quiet.detail) == (
+        loaded.expanded,
+        loaded.direction_switches,
+        loaded.detail,
+    )
     for column, values in quiet.path.items():
         np.testing.assert_array_equal(loaded.path[column], values, err_msg=column)
 

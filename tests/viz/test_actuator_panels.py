@@ -21,7 +21,7 @@ from hitchpark.app.report import run_scenario
 from hitchpark.io import read_json, write_json
 from hitchpark.maneuver import ManeuverResult, builtin_scenarios
 from hitchpark.model import IDEAL, PlantSettings
-from hitchpark.sim import Trajectory
+from hitchpark.model.simulate import Trajectory
 from hitchpark.viz.inputs import inputs_figure, steer_rate_limit
 from hitchpark.viz.maneuver import plot_maneuver
 

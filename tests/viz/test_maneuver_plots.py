@@ -17,7 +17,7 @@ from hitchpark.control import NMPCSettings
 from hitchpark.io import read_json, write_json
 from hitchpark.maneuver import ManeuverResult, ManeuverSettings, SuccessCriteria, park
 from hitchpark.model import IDEAL, Pose, VehicleTrailer, hitch_point, rear_axle_pose
-from hitchpark.sim import State
+from hitchpark.model.simulate import State
 from hitchpark.viz.maneuver import animate_maneuver, body_outlines, parking_space, plot_maneuver, wheel_outlines
 
 VEHICLES = (

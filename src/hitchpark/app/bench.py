@@ -26,8 +26,6 @@ import numpy as np
 
 from ..checks import InputError, check_int
 from ..control.nmpc import FullNMPC, NLPProblem, TrailerNMPC, make_nmpc
-from ..control.ocp import NMPCSettings
-from ..control.solvers import ROUTES, make_solver, quiet_stderr, takes_duals
 from ..maneuver import ManeuverSettings, builtin_scenarios, park
 from ..maneuver.scenario import OBSTACLE_SUITE, builtin_scenario
 from ..maneuver.settings import ProcessSettings
@@ -35,6 +33,8 @@ from ..model.plant import PlantSettings
 from ..model.scene import Scene
 from ..model.state import Pose, State
 from ..model.vehicle import VehicleTrailer
+from ..ocp.settings import NMPCSettings
+from ..solvers.registry import ROUTES, make_solver, quiet_stderr, takes_duals
 from .sweep import DEFAULT_REGION, config_from_scenario, draw_starts
 
 __all__ = [
@@ -111,8 +111,8 @@ class BenchOCP:
 
 #: The OCPs ``bench`` knows: the paper's (its 3-stage process on the ideal car), the full model's (parking
 #: at the goal on the realistic car, open space), the obstacle OCP (the full model keeping clear of the
-#: scene, :mod:`~hitchpark.control.clearance`, in the built-in scenes of obstacles) and the tracking OCP
-#: (the full model tracking the planned path, :mod:`~hitchpark.control.reference`: the default process in
+#: scene, :mod:`~hitchpark.ocp.obstacles`, in the built-in scenes of obstacles) and the tracking OCP
+#: (the full model tracking the planned path, :mod:`~hitchpark.ocp.reference`: the default process in
 #: open space). The full and obstacle OCPs park at the goal: their planned processes hand the last metres
 #: to the NMPC instead of letting it track the whole last segment (``process.nmpc_tracking``).
 _PARKING = ProcessSettings(nmpc_tracking=False)

@@ -1,6 +1,7 @@
 """Running scenarios and reporting them: Table 5, ``summary.json``, saved maneuvers, figures on request.
 
-Figures come from :mod:`hitchpark.viz`, imported only when asked for.
+Figures are drawn by a renderer the caller gives (the command line gives
+:func:`hitchpark.viz.maneuver.render_maneuver`): this layer draws nothing.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ __all__ = [
     "MANEUVER_FILES",
     "PAPER_TABLE5",
     "SUITES",
-    "render_maneuver",
+    "Render",
     "reproduce",
     "run_scenario",
     "save_maneuver",
@@ -89,25 +90,13 @@ def run_scenario(scenario: Scenario, plant: PlantSettings | None = None) -> Mane
     )
 
 
-def render_maneuver(
-    result: ManeuverResult, folder: Path, plots: bool = True, animation: bool = True
-) -> dict[str, Path]:
-    """Draw the figures and/or the GIF of ``result`` into ``folder``; return the paths by name."""
-    files: dict[str, Path] = {}
-    if plots:
-        from ..viz.maneuver import plot_maneuver
-
-        for p in plot_maneuver(result, folder):
-            files[p.stem] = p
-    if animation:
-        from ..viz.maneuver import animate_maneuver
-
-        files["animation"] = animate_maneuver(result, folder / ANIMATION_FILE, max_frames=ANIMATION_FRAMES)
-    return files
+#: Draws a maneuver's figures into a folder and returns their paths by name
+#: (:func:`hitchpark.viz.maneuver.render_maneuver`, given the switches it needs).
+Render = Callable[[ManeuverResult, Path], dict[str, Path]]
 
 
-def save_maneuver(result: ManeuverResult, folder: Path, plots: bool = True, animation: bool = True) -> dict[str, Path]:
-    """Write ``maneuver.json`` and ``trajectory.csv`` (and the figures and GIF if asked) into ``folder``.
+def save_maneuver(result: ManeuverResult, folder: Path, render: Render | None = None) -> dict[str, Path]:
+    """Write ``maneuver.json`` and ``trajectory.csv`` into ``folder``, and what ``render`` draws if given.
 
     Returns the paths by name. The CSV holds the trajectory columns alone, for tools that read tables.
     """
@@ -115,7 +104,8 @@ def save_maneuver(result: ManeuverResult, folder: Path, plots: bool = True, anim
     files = {"maneuver": write_json(folder / "maneuver.json", result.to_dict())}
     result.trajectory.to_csv(folder / "trajectory.csv")
     files["trajectory"] = folder / "trajectory.csv"
-    files.update(render_maneuver(result, folder, plots, animation))
+    if render is not None:
+        files.update(render(result, folder))
     return files
 
 
@@ -207,8 +197,7 @@ def suite_table(results: Sequence[ManeuverResult]) -> str:
 def reproduce(
     out: str | Path,
     scenarios: Sequence[Scenario] | None = None,
-    plots: bool = True,
-    animation: bool = True,
+    render: Render | None = None,
     progress: Callable[[str], None] | None = None,
     workers: int | None = None,
     plant: PlantSettings | None = None,
@@ -217,9 +206,9 @@ def reproduce(
 
     Returns the results and the path of the summary. Each scenario's files go to
     ``out/<name>/``, beside ``summary.json``. Everything is built in a staging folder and
-    published at the end, so an error leaves ``out`` as it was. Figures and animations,
-    the slow part, are drawn in ``workers`` processes (default: one per core, at most
-    one per scenario). ``plant`` replaces the scenarios' own plant (the paper's: ideal).
+    published at the end, so an error leaves ``out`` as it was. What ``render`` draws (figures
+    and animations, the slow part; it must pickle) is drawn in ``workers`` processes (default: one per
+    core, at most one per scenario). ``plant`` replaces the scenarios' own plant (the paper's: ideal).
     """
     out = Path(out)
     scenarios = list(scenarios) if scenarios is not None else builtin_scenarios()
@@ -247,20 +236,16 @@ def reproduce(
     with staged as stage:
         folders = [stage / r.name for r in results]
         for r, folder in zip(results, folders, strict=True):
-            save_maneuver(r, folder, plots=False, animation=False)
+            save_maneuver(r, folder)
         n = max(1, min(workers or os.cpu_count() or 1, len(results)))
-        if (plots or animation) and n == 1:
+        if render is not None and n == 1:
             for r, folder in zip(results, folders, strict=True):
-                render_maneuver(r, folder, plots, animation)
-        elif plots or animation:
+                render(r, folder)
+        elif render is not None:
             # Quiet workers: on Ctrl-C or an error they are terminated, not awaited, before the stage goes.
             with WorkerPool(n) as pool:
-                jobs = [
-                    pool.submit(render_maneuver, r, f, plots, animation) for r, f in zip(results, folders, strict=True)
-                ]
+                jobs = [pool.submit(render, r, f) for r, f in zip(results, folders, strict=True)]
                 for job in jobs:
                     job.result()
         write_json(stage / "summary.json", {"scenarios": entries})
-    if progress and (plots or animation):
-        progress(f"figures{' and animations' if animation else ''} in {out}/<scenario>/")
     return results, out / "summary.json"

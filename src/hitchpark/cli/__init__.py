@@ -188,7 +188,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     parser = build_parser()
     args = parser.parse_args(argv)
-    from ..interrupts import Interrupts, caused_by_interrupt
+    from .interrupts import Interrupts, caused_by_interrupt
 
     interrupts = Interrupts()
     try:

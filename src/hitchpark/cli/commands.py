@@ -3,17 +3,21 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..checks import InputError
 from .arguments import UsageError, _finite, _plant, parse_goal, parse_start, scenario_from_arg, vehicle_from_args
 
+if TYPE_CHECKING:
+    from ..app.report import Render
+
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
     from ..io import write_json
+    from ..model.simulate import simulate
     from ..outputs import check_output_file
-    from ..sim import simulate
 
     path = check_output_file(args.json, "--json")
     vehicle = vehicle_from_args(args)
@@ -40,8 +44,8 @@ IK_STUDY_FILES = ("ik_study.json", "ik_study.png")  #: what ik-study owns in --o
 
 
 def _cmd_ik_study(args: argparse.Namespace) -> int:
+    from ..app.ik_study import TABLE2_VEHICLE, inverse_kinematics_study
     from ..io import StagedFolder, write_json
-    from ..studies import TABLE2_VEHICLE, inverse_kinematics_study
 
     staged = StagedFolder(args.out, IK_STUDY_FILES, "--out")  # checks --out before any work
     out = staged.target
@@ -62,6 +66,15 @@ def _cmd_ik_study(args: argparse.Namespace) -> int:
     return 0
 
 
+def _renderer(plots: bool, animation: bool) -> Render | None:
+    """What draws a maneuver's figures (and GIF) for :mod:`hitchpark.app.report`, or None: nothing to draw."""
+    if not (plots or animation):
+        return None
+    from ..viz.maneuver import render_maneuver
+
+    return functools.partial(render_maneuver, plots=plots, animation=animation)
+
+
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from ..app.report import reproduce, suite_scenarios, suite_table, table5
     from ..outputs import check_output_folder
@@ -69,7 +82,10 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     scenarios = suite_scenarios(args.suite, "--suite") if args.suite is not None else None
     out = check_output_folder(args.out, "--out")
     plots = not args.no_plots
-    results, summary = reproduce(out, scenarios, plots=plots, animation=plots, progress=print, plant=_plant(args))
+    render = _renderer(plots, plots)
+    results, summary = reproduce(out, scenarios, render, progress=print, plant=_plant(args))
+    if plots:
+        print(f"figures and animations in {out}/<scenario>/")
     print()
     if args.suite in (None, "paper"):
         print("Table 5 (trailer distance error, orientation error, final hitch angle):")
@@ -108,7 +124,8 @@ def _cmd_park(args: argparse.Namespace) -> int:
     result = park(sc.vehicle, sc.start, sc.goal, sc.settings, name=sc.name, plant=sc.plant, scene=sc.scene)
     plots = not args.no_plots
     with staged as stage:
-        files = {k: out / p.relative_to(stage) for k, p in save_maneuver(result, stage, plots, plots).items()}
+        saved = save_maneuver(result, stage, _renderer(plots, plots))
+        files = {k: out / p.relative_to(stage) for k, p in saved.items()}
     entry = summary_entry(result, "maneuver.json")
     outcome = (
         "parked"
@@ -127,9 +144,10 @@ def _cmd_park(args: argparse.Namespace) -> int:
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
-    from ..app.report import ANIMATION_FILE, FIGURE_FILES, render_maneuver
+    from ..app.report import ANIMATION_FILE, FIGURE_FILES
     from ..io import StagedFolder, read_json
     from ..maneuver.result import ManeuverResult
+    from ..viz.maneuver import render_maneuver
 
     flag, out = ("--out", args.out) if args.out is not None else ("output folder", args.maneuver.parent)
     staged = StagedFolder(out, (*FIGURE_FILES, ANIMATION_FILE), flag)  # checks it before any work

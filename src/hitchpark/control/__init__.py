@@ -1,14 +1,18 @@
-"""Controllers: the reverse NMPCs (the paper's trailer-only one, Section 4, and the full-model one) and the
-forward pure pursuit (Section 5), with their OCPs, transcriptions and solver registry, and the planned
-path as the full NMPC's reference."""
+"""Who acts each tick: the reverse NMPCs (the paper's trailer-only one, Section 4, and the full-model one), the
+forward pure pursuit (Section 5), the planned path's tracker and the guard that keeps the car clear of the scene.
 
-from .full_ocp import FullParkingProblem
+What they optimise is in :mod:`hitchpark.ocp`, how it is solved in :mod:`hitchpark.solvers`; the names a user
+imported from here before those were apart are here too (``NMPCSettings``, ``PathReference``, ``make_solver``).
+"""
+
+from ..ocp.full import FullParkingProblem
+from ..ocp.reference import PathReference
+from ..ocp.settings import NMPCSettings
+from ..ocp.trailer import TrailerParkingProblem
+from ..solvers.registry import ROUTES, make_solver, register_solver
+from ..solvers.transcription import MultipleShooting, SingleShooting, make_transcription
 from .nmpc import FullNMPC, NMPCStep, TrailerNMPC, make_nmpc
-from .ocp import NMPCSettings, TrailerParkingProblem
 from .pure_pursuit import ForwardPursuit, PurePursuitSettings
-from .reference import PathReference
-from .solvers import ROUTES, make_solver, register_solver
-from .transcription import MultipleShooting, SingleShooting, make_transcription
 
 __all__ = [
     "ROUTES",

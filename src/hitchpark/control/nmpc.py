@@ -23,11 +23,12 @@ from ..model.plant import Command, Measurement
 from ..model.scene import Scene
 from ..model.state import Pose, State, check_goal, clamp, to_goal_frame
 from ..model.vehicle import VehicleTrailer
-from .clearance import ClearanceConstraints
-from .full_ocp import SPEED, STEER, FullParkingProblem
-from .ocp import NMPCSettings, TrailerParkingProblem
+from ..ocp.full import SPEED, STEER, FullParkingProblem
+from ..ocp.obstacles import ClearanceConstraints
+from ..ocp.reference import PathReference
+from ..ocp.settings import NMPCSettings
+from ..ocp.trailer import TrailerParkingProblem
 from .receding import NLPProblem, NMPCStep, Program, RecedingHorizon, build_program, checked_settings
-from .reference import PathReference
 
 __all__ = ["FullNMPC", "NLPProblem", "NMPCStep", "TrailerNMPC", "make_nmpc"]
 

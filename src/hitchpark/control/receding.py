@@ -20,9 +20,9 @@ from ..checks import InputError, check_instance
 from ..model.plant import Command, Measurement
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer, check_vehicle
-from .ocp import OCP, NMPCSettings
-from .solvers import ROUTES, casadi_reason, make_solver, takes_duals, takes_free_initial
-from .transcription import make_transcription, shifted_rows
+from ..ocp.settings import NMPCSettings, ParkingOCP
+from ..solvers.registry import ROUTES, casadi_reason, make_solver, takes_duals, takes_free_initial
+from ..solvers.transcription import make_transcription, shifted_rows
 
 __all__ = ["NLPProblem", "NMPCStep"]
 
@@ -96,7 +96,7 @@ def checked_settings(vehicle: Any, settings: Any, kind: str) -> NMPCSettings:
 class Program:
     """An OCP made ready to solve: its transcription, the primary and fallback solvers."""
 
-    problem: OCP
+    problem: ParkingOCP
     transcription: Any
     solver: Any
     fallback: Any
@@ -105,7 +105,7 @@ class Program:
     relaxed: Any = None  # the route of problems that relax an equality (built when first needed)
 
 
-def build_program(problem: OCP) -> Program:
+def build_program(problem: ParkingOCP) -> Program:
     s = problem.settings
     transcription = make_transcription(problem)
     equality = list(transcription.lbg == transcription.ubg)
@@ -130,7 +130,7 @@ def build_program(problem: OCP) -> Program:
 class RecedingHorizon:
     """The solve machinery both NMPCs share: transcription, solver cascade, warm start."""
 
-    def __init__(self, vehicle: VehicleTrailer, problem: OCP):
+    def __init__(self, vehicle: VehicleTrailer, problem: ParkingOCP):
         vehicle.require_hitch_offset()
         self.vehicle = vehicle
         self.settings = problem.settings
@@ -151,7 +151,7 @@ class RecedingHorizon:
         return float(self.settings.prediction_dt or self.settings.dt)
 
     @property
-    def problem(self) -> OCP:
+    def problem(self) -> ParkingOCP:
         """The OCP solved now."""
         return self._program.problem
 

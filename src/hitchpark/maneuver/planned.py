@@ -5,7 +5,7 @@ keeps ``success.min_clearance_m + process.plan_margin_m`` from the scene and end
 obstacles, failing that within half the planner's expansions, on the goal line ``process.handover_m`` to
 ``process.approach_m`` out, heading along it, a straight reverse along the line following). The direction
 segments become stages between standstills: the full NMPC tracks the last reverse segment to the goal
-(``process.nmpc_tracking``, its reference :class:`~hitchpark.control.reference.PathReference`), a
+(``process.nmpc_tracking``, its reference :class:`~hitchpark.ocp.reference.PathReference`), a
 :class:`~hitchpark.control.path_tracking.PathTracker` drives the others. (Without ``nmpc_tracking`` the
 tracker drives the last one too, until ``process.handover_m`` is left, and the NMPC parks the rest; the
 path then ends on the goal line first, the NMPC parking best from a straight approach.) Among obstacles
@@ -31,11 +31,11 @@ import numpy as np
 from ..control.guard import Guard
 from ..control.nmpc import FullNMPC, TrailerNMPC
 from ..control.path_tracking import PathTracker, direction_segments
-from ..control.reference import PathReference
 from ..model.plant import Measurement
 from ..model.scene import Scene
 from ..model.state import Pose, from_goal_frame, to_goal_frame
 from ..model.vehicle import VehicleTrailer
+from ..ocp.reference import PathReference
 from ..planning import Plan, PlannerSettings, plan, prepare
 from .result import Outcome
 from .settings import ManeuverSettings

@@ -31,9 +31,9 @@ from ..model.inverse import virtual_steer_from_front
 from ..model.kinematics import trailer_speed_from_rear_speed
 from ..model.plant import Command, Measurement, Plant, PlantSettings
 from ..model.scene import Scene
+from ..model.simulate import STATE_COLUMNS, Trajectory, state_columns
 from ..model.state import Pose, State, check_goal, check_state, clamp
 from ..model.vehicle import VehicleTrailer, check_vehicle
-from ..sim import STATE_COLUMNS, Trajectory, state_columns
 from .planned import PlannedProcess
 from .result import (
     MANEUVER_COLUMNS,

@@ -36,10 +36,10 @@ from ..checks import (
 from ..model.collision import swept_clearance
 from ..model.plant import PlantSettings
 from ..model.scene import Scene
+from ..model.simulate import BASE_COLUMNS, Trajectory
 from ..model.state import Pose, State, check_state, to_goal_frame
 from ..model.vehicle import VehicleTrailer, vehicle_from_dict
 from ..planning import STATUSES, Plan
-from ..sim import BASE_COLUMNS, Trajectory
 from .settings import MAX_MANEUVER_TIME, ManeuverSettings, ProcessSettings, SuccessCriteria
 
 __all__ = [

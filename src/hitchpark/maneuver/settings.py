@@ -12,9 +12,9 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from ..checks import Choice, Flag, Integer, Real, build, check_fields, check_keys, check_mapping, checked
-from ..control.ocp import NMPCSettings
 from ..control.path_tracking import TrackingSettings
 from ..control.pure_pursuit import PurePursuitSettings
+from ..ocp.settings import NMPCSettings
 from ..planning import PlannerSettings
 from ..planning.search import START_MARGIN_M
 
@@ -79,7 +79,7 @@ class ProcessSettings:
         it is left to the goal [m]; the NMPC parks the rest.
     nmpc_tracking : bool
         The full NMPC tracks the whole last reverse segment to the goal (its tracking OCP, the plan as
-        reference, :class:`~hitchpark.control.reference.PathReference`).
+        reference, :class:`~hitchpark.ocp.reference.PathReference`).
     plan_margin_m : float
         The planner keeps ``success.min_clearance_m`` plus this [m]: room for the tracking error.
     guard_margin_m : float

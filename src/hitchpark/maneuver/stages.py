@@ -19,10 +19,10 @@ from ..control.guard import Guard
 from ..control.nmpc import FullNMPC, NMPCStep, TrailerNMPC, make_nmpc
 from ..control.path_tracking import PathTracker
 from ..control.pure_pursuit import ForwardPursuit
-from ..control.reference import PathReference
 from ..model.plant import Command, Measurement
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
+from ..ocp.reference import PathReference
 from ..planning import Plan
 from .result import Outcome
 from .settings import ManeuverSettings

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..control.compiled import cache_dir
+from ..solvers.compiled import cache_dir
 
 __all__ = ["cached_arrays"]
 

@@ -107,7 +107,7 @@ def trailer_table(
 ) -> TrailerTable:
     """The table for these parameters over :data:`EXTENT`, cached in the process and on disk.
 
-    On disk beside the compiled solvers (:func:`~hitchpark.control.compiled.cache_dir`), keyed by the
+    On disk beside the compiled solvers (:func:`~hitchpark.solvers.compiled.cache_dir`), keyed by the
     parameters; a cache that cannot be read or written is recomputed, never an error.
     """
     args = (radius, cell, yaw_bins, EXTENT, step, weight_forward, weight_reverse)

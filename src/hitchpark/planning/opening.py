@@ -9,14 +9,17 @@ hundreds of nodes and often settles for more changes of direction.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import Protocol
 
 import numpy as np
 
+from ..model.scene import Scene
+from .endgame import EndGame
+from .motion import PrimitiveBatch
 from .nodes import Node
-
-if TYPE_CHECKING:
-    from .search import _Search
+from .settings import PlannerSettings
+from .tree import GoalTree
 
 __all__ = ["OPENING_FORWARD_M", "opening"]
 
@@ -45,10 +48,40 @@ OPENING_FORWARD_NODES = 300
 OPENING_TREE_WEIGHT = 2.5
 
 
-def opening(search: _Search, nodes: list[Node], h_start: float) -> int | None:
+class Searcher(Protocol):
+    """What the opening uses of a search (:class:`~.search.Search` has it)."""
+
+    settings: PlannerSettings
+    scene: Scene
+    start: np.ndarray
+    tree: GoalTree | None
+    endgame: EndGame | None
+    hitch_limit: float
+    steer_samples_forward: np.ndarray
+    opening_batch: PrimitiveBatch
+
+    def estimate(self, state: np.ndarray) -> float: ...
+
+    def clear(self, states: np.ndarray) -> np.ndarray: ...
+
+    def length(self, nodes: list[Node], last: int) -> float: ...
+
+    def land(self, nodes: list[Node], index: int, dubins: bool, max_length: float) -> int | None: ...
+
+    def astar(
+        self,
+        nodes: list[Node],
+        h_start: float,
+        budget: int,
+        only: int = 0,
+        heuristic: Callable[[np.ndarray], np.ndarray] | None = None,
+    ) -> tuple[str, int]: ...
+
+
+def opening(search: Searcher, nodes: list[Node], h_start: float) -> int | None:
     """Before searching: a single reverse run from the start, or forward and then one (:mod:`.endgame`).
 
-    The goal node's index in ``nodes`` of ``search`` (a :class:`~.search._Search`), or None: the cheapest
+    The goal node's index in ``nodes`` of ``search`` (a :class:`~.search.Search`), or None: the cheapest
     in trailer-axle length plus ``weight_switch`` per change of direction of the end-games from the start,
     a search of reverse primitives only (:data:`OPENING_REVERSE_NODES` nodes at most), and forward and
     then a Dubins shot. An end-game from the start is taken at once when within ``weight_switch`` of the
@@ -61,16 +94,16 @@ def opening(search: _Search, nodes: list[Node], h_start: float) -> int | None:
     assert endgame is not None
     s = search.settings
     distance = math.hypot(*endgame.in_goal_frame(search.start)[:2])
-    direct = search._land(nodes, 0, dubins=True, max_length=OPENING_MAX_LENGTH_M)
+    direct = search.land(nodes, 0, dubins=True, max_length=OPENING_MAX_LENGTH_M)
     best, best_cost = None, math.inf
     if direct is not None:
-        best, best_cost = direct, search._length(nodes, direct)
+        best, best_cost = direct, search.length(nodes, direct)
         if best_cost <= distance + s.weight_switch:
             return best
     if search.tree is None:  # (a goal tree holds the single reverse runs in already: its shots tried them)
-        status, found = search._astar(nodes, h_start, budget=OPENING_REVERSE_NODES, only=-1)
-        if status == "found" and search._length(nodes, found) < best_cost:
-            best, best_cost = found, search._length(nodes, found)
+        status, found = search.astar(nodes, h_start, budget=OPENING_REVERSE_NODES, only=-1)
+        if status == "found" and search.length(nodes, found) < best_cost:
+            best, best_cost = found, search.length(nodes, found)
     forward = search.steer_samples_forward
     motions = search.opening_batch.run(search.start, forward, forward, np.ones(len(forward)))
     candidates = []
@@ -78,7 +111,7 @@ def opening(search: _Search, nodes: list[Node], h_start: float) -> int | None:
         ok = np.cumprod((np.abs(arc[1:, 3]) <= search.hitch_limit) & np.all(np.isfinite(arc[1:]), axis=1))
         trailer = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(arc[:, :2], axis=0).T))])
         for k in range(OPENING_STRIDE, len(arc), OPENING_STRIDE):
-            if ok[k - 1] and abs(arc[k, 3]) <= OPENING_MAX_HITCH and search._clear(arc[None, : k + 1, :4])[0]:
+            if ok[k - 1] and abs(arc[k, 3]) <= OPENING_MAX_HITCH and search.clear(arc[None, : k + 1, :4])[0]:
                 estimate_k = trailer[k] + search.estimate(arc[k])
                 candidates.append((estimate_k + s.heuristic_hitch_m * abs(arc[k, 3]), arc[: k + 1]))
     candidates.sort(key=lambda c: c[0])
@@ -86,9 +119,9 @@ def opening(search: _Search, nodes: list[Node], h_start: float) -> int | None:
         if estimate_k + s.weight_switch >= best_cost:
             break
         nodes.append(Node(arc[-1, :4], float(arc[-1, 4]), 1, 0.0, 0, arc[1:, :4], arc[1:, 4]))
-        landed = search._land(nodes, len(nodes) - 1, dubins=True, max_length=best_cost - s.weight_switch)
+        landed = search.land(nodes, len(nodes) - 1, dubins=True, max_length=best_cost - s.weight_switch)
         if landed is not None:
-            cost = search._length(nodes, landed) + s.weight_switch
+            cost = search.length(nodes, landed) + s.weight_switch
             if cost < best_cost:
                 best, best_cost = landed, cost
             break
@@ -100,7 +133,7 @@ def opening(search: _Search, nodes: list[Node], h_start: float) -> int | None:
             return OPENING_TREE_WEIGHT * search.tree.estimate(states, within=math.inf)
 
         h = float(to_tree(search.start[None, :4])[0])
-        status, found = search._astar(nodes, h, budget=OPENING_FORWARD_NODES, only=1, heuristic=to_tree)
+        status, found = search.astar(nodes, h, budget=OPENING_FORWARD_NODES, only=1, heuristic=to_tree)
         if status == "found":
             best = found
     return best

@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..control.clearance import prepare_lines
 from ..model.checker import prepare_distances
 from ..model.scene import Scene
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
+from ..ocp.obstacles import prepare_lines
 from .discs import prepare_discs
 from .endgame import EndGame
 from .motion import PrimitiveBatch

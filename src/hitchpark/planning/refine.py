@@ -14,7 +14,7 @@ their length free within limits: the path may grow or shrink a little), laid out
 by fatrop (``PlannerSettings.refine_solver``; IPOPT the reference) from the search's own run moved onto
 the goal. The cost keeps the trailer axle near that run (which passed the
 collision check) and the steer rate, the hitch and the steer low; among obstacles every node keeps the
-scene's separating lines (:mod:`~hitchpark.control.clearance`), and :func:`refine_plan` checks the
+scene's separating lines (:mod:`~hitchpark.ocp.obstacles`), and :func:`refine_plan` checks the
 result's exact swept clearance. When the solver fails, or the result does not keep clear, the searched path
 stays. (A run that starts standing still may start with another steer: it is set at the standstill.)
 """
@@ -24,7 +24,6 @@ from __future__ import annotations
 import functools
 import math
 import time
-from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -32,23 +31,22 @@ import casadi as ca
 import numpy as np
 
 from ..checks import check_choice
-from ..control.clearance import ClearanceConstraints
 from ..model.collision import swept_clearance
 from ..model.integrate import rk4
 from ..model.kinematics import full_rhs
 from ..model.scene import Scene
 from ..model.state import Pose, from_goal_frame, to_goal_frame
 from ..model.vehicle import VehicleTrailer
+from ..ocp.obstacles import ClearanceConstraints
+from ..solvers.registry import cold_solver_names, make_cold_solver
 from .settings import PATH_COLUMNS, Plan, PlannerSettings
 
 __all__ = [
     "REFINE_PLANES",
-    "REFINE_SOLVERS",
     "REFINE_STEPS",
     "refine_end",
     "refine_plan",
     "refine_solver",
-    "refine_solver_names",
 ]
 
 #: Intervals of the refined part (its length / REFINE_STEPS each: 0.25 m of rear axle over 20 m).
@@ -61,7 +59,7 @@ LENGTH_RANGE = (0.6, 1.6)
 SETTLE_M = 1.0
 
 #: Among obstacles, each node keeps clear of this many of the scene's pieces nearest to each body (the
-#: separating lines of :mod:`~hitchpark.control.clearance`).
+#: separating lines of :mod:`~hitchpark.ocp.obstacles`).
 REFINE_PLANES = 2
 
 #: The refined path's nodes keep ``min_clearance_m`` and half CHECK_STEP_M more (the NLP's constraints);
@@ -101,48 +99,11 @@ OBSTACLE_ATTEMPTS = ((OBSTACLE_WEIGHTS, SETTLE_M), (CLOSE_WEIGHTS, SETTLE_M), (C
 BOUND_MARGIN = 1e-6
 
 
-def _fatrop(equality: list[bool]) -> tuple[str, dict[str, Any]]:
-    """fatrop on the NLP's stages, from its own start (the guess is the searched run, not a warm start)."""
-    return "fatrop", {
-        "print_time": False,
-        "structure_detection": "auto",
-        "equality": equality,
-        "debug": False,
-        "fatrop.print_level": 0,
-        "fatrop.tol": 1e-8,
-        "fatrop.max_iter": 200,
-    }
-
-
-def _ipopt(equality: list[bool]) -> tuple[str, dict[str, Any]]:
-    """IPOPT, the reference: the same optimum (to about 1e-6 m) in the same iterations, 1.3 to 2.5 times slower."""
-    return "ipopt", {
-        "print_time": False,
-        "ipopt.print_level": 0,
-        "ipopt.sb": "yes",
-        "ipopt.max_iter": 200,
-        "ipopt.tol": 1e-8,
-        "ipopt.bound_relax_factor": 0.0,
-    }
-
-
-#: The solvers of the refinement NLP by name (``PlannerSettings.refine_solver``): each gives CasADi's plugin
-#: and options from the rows of ``g`` that are equalities. Not the NMPC's routes (:mod:`..solvers`): theirs
-#: are tuned to start from a warm start near the bounds, this NLP starts from the searched run. In-process:
-#: nothing to compile (the 80-step NLP took 29 s to compile for IPOPT, 65 s among obstacles, and 30 s as a
-#: whole generated fatrop solver).
-REFINE_SOLVERS: dict[str, Callable[[list[bool]], tuple[str, dict[str, Any]]]] = {"fatrop": _fatrop, "ipopt": _ipopt}
-
-
-def refine_solver_names() -> tuple[str, ...]:
-    return tuple(REFINE_SOLVERS)
-
-
 @functools.lru_cache(maxsize=16)
 def refine_solver(
     vehicle: VehicleTrailer, hitch_limit: float, planes: int = 0, solver: str = "fatrop"
 ) -> tuple[ca.Function, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The refinement NLP solved by ``solver`` (:data:`REFINE_SOLVERS`), the bounds of its variables and of
+    """The refinement NLP solved by ``solver`` (a cold-start route), the bounds of its variables and of
     its constraints that do not change between calls.
 
     Laid out in stages, as fatrop takes it: ``w = [X_0, U_0, X_1, ..., U_{N-1}, X_N]``, each X_k the state
@@ -150,10 +111,10 @@ def refine_solver(
     = T_k, a state without dynamics, bounded at stage 0), U_k the steer rate [rad per m of rear axle];
     ``g = [gap_0, (gap_k, rows on X_k) for 0 < k < N, rows on X_N]``. Parameters: the trailer-axle positions
     of the searched path at the N + 1 nodes, the weights, and with ``planes`` > 0 the separating lines of
-    X_1..X_N (:class:`~hitchpark.control.clearance.ClearanceConstraints`: ``planes`` per body). See
+    X_1..X_N (:class:`~hitchpark.ocp.obstacles.ClearanceConstraints`: ``planes`` per body). See
     :func:`_stages` for the indices of the parts of ``w``.
     """
-    check_choice("planner.refine_solver", solver, REFINE_SOLVERS)  # (refine_end may be called directly)
+    check_choice("planner.refine_solver", solver, cold_solver_names())  # (refine_end may be called directly)
     n = REFINE_STEPS
     X = [ca.SX.sym(f"X{k}", 6) for k in range(n + 1)]
     U = [ca.SX.sym(f"U{k}") for k in range(n)]
@@ -194,8 +155,7 @@ def refine_solver(
         "f": ca.cse(cost),
         "g": ca.cse(ca.vertcat(*g)),
     }
-    plugin, options = REFINE_SOLVERS[solver](equality)
-    nlpsol = ca.nlpsol(f"refine_end_{solver}", plugin, nlp, options)
+    nlpsol = make_cold_solver(solver, f"refine_end_{solver}", nlp, equality)
     is_row = ~np.array(equality)
     low_g, high_g = np.zeros(len(equality)), np.where(is_row, np.inf, 0.0)
     inf = np.inf
@@ -238,7 +198,7 @@ def refine_end(
     node kept on the free side of the separating lines of the first guess there. The rows returned are
     at most ``row_m`` of rear axle apart (the NLP's intervals integrated in as many RK4 steps). Returns
     the new rows after the first (k, 4), the steers of the first and of them (k + 1,) and the rear-axle
-    distance driven to each from the first row (k,) [m], or None when ``solver`` (:data:`REFINE_SOLVERS`) finds no
+    distance driven to each from the first row (k,) [m], or None when ``solver`` (a cold-start route) finds no
     such path."""
     n = REFINE_STEPS
     planes = 0 if clearance is None else clearance.planes

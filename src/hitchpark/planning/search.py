@@ -85,7 +85,7 @@ def plan(
     began = time.perf_counter()
     expanded = 0
     for refinement in range(REFINEMENTS + 1):
-        search = _Search(vehicle, start, goal, scene, settings, began, tree)
+        search = Search(vehicle, start, goal, scene, settings, began, tree)
         search.expanded = expanded
         result = search.run()
         expanded = result.expanded
@@ -101,7 +101,7 @@ def plan(
     return result  # pragma: no cover (the loop returns)
 
 
-class _Search:
+class Search:
     def __init__(
         self,
         vehicle: VehicleTrailer,
@@ -188,7 +188,7 @@ class _Search:
         yaw = states[..., 2]
         return arrived(self.settings, gx, gy, lambda: goal_frame_yaw(self.goal, yaw), states[..., 3])
 
-    def _clear(self, states: np.ndarray) -> np.ndarray:
+    def clear(self, states: np.ndarray) -> np.ndarray:
         """Per primitive (n, k+1, 4): True if samples 1..k keep clear (the fast approximation)."""
         if self.scene.is_empty:
             x_ok = (states[:, 1:, 0] > self.bounds[0]) & (states[:, 1:, 0] < self.bounds[2])
@@ -251,7 +251,7 @@ class _Search:
             found = self._openings(nodes, h_start)
             if found is not None:
                 return self._done("found", "within the goal tolerance (opening)", nodes, found)
-        status, found = self._astar(nodes, h_start, budget=s.max_expansions)
+        status, found = self.astar(nodes, h_start, budget=s.max_expansions)
         if status == "found":
             return self._done("found", "within the goal tolerance", nodes, found)
         if status == "planner_timeout":
@@ -265,7 +265,7 @@ class _Search:
             f"the search space is exhausted at a {s.xy_resolution_m:g} m grid: no path reaches the goal tolerance",
         )
 
-    def _astar(
+    def astar(
         self,
         nodes: list[Node],
         h_start: float,
@@ -306,7 +306,7 @@ class _Search:
             if self.closest is None or self._remaining(node) < self._remaining(self.closest):
                 self.closest = node
             if self.endgame is not None and index > 0:
-                found = self._land(nodes, index, dubins=expanded % DUBINS_EVERY == 0, max_length=s.shot_length_m)
+                found = self.land(nodes, index, dubins=expanded % DUBINS_EVERY == 0, max_length=s.shot_length_m)
                 if found is not None:
                     return "found", found
             # Forward primitives hold a front steer, reverse ones a virtual steer (Eq. 45). The steer carries
@@ -318,7 +318,7 @@ class _Search:
             ok = np.all(np.abs(motions[:, 1:, 3]) <= self.hitch_limit, axis=1) & np.all(
                 np.isfinite(motions), axis=(1, 2)
             )
-            fast = ok & self._clear(motions)
+            fast = ok & self.clear(motions)
             # Where the fast check refuses every motion (a start near a wall, say), the exact check decides.
             ok = fast if fast.any() or self.scene.is_empty else self.screen.clear(motions[:, :, :4], ok)
             if not ok.any():
@@ -383,14 +383,14 @@ class _Search:
         by_tree = math.inf if self.tree is None else float(self.tree.estimate(state[None, :4])[0])
         return min(by_tree, self.endgame.dubins_estimate(state))
 
-    def _length(self, nodes: list[Node], last: int) -> float:
+    def length(self, nodes: list[Node], last: int) -> float:
         """Trailer-axle length [m] of the path ending at node ``last``, and of the straight along the goal line
         from its end to the goal that follows it (a path to the goal line's far end is that much longer)."""
         assert self.endgame is not None
         remaining = max(self.endgame.in_goal_frame(nodes[last].state)[0], 0.0)
         return float(self._path(nodes, last)["s"][-1]) + remaining
 
-    def _land(self, nodes: list[Node], index: int, dubins: bool, max_length: float) -> int | None:
+    def land(self, nodes: list[Node], index: int, dubins: bool, max_length: float) -> int | None:
         """End-games from node ``index`` (:mod:`.endgame`); the new goal node's index if one lands clear.
 
         The landings are tried shortest (in samples) first; those longer than ``max_length`` (trailer axle) are
@@ -436,7 +436,7 @@ class _Search:
 
     def _fast_clear(self, node: Node, world: np.ndarray) -> bool:
         """A landing's samples ``world`` from ``node`` keep clear by the fast check (:meth:`_clear`)."""
-        return bool(self._clear(np.vstack([node.state[None, :], world])[None])[0])
+        return bool(self.clear(np.vstack([node.state[None, :], world])[None])[0])
 
     def _landing_clear(self, node: Node, world: np.ndarray) -> bool:
         """A landing's samples ``world`` from ``node`` keep clear: by the fast check, or else exactly (among

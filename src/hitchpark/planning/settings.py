@@ -10,6 +10,7 @@ import numpy as np
 
 from ..checks import Choice, InputError, Integer, Real, check_fields, checked
 from ..model.state import wrap_angle
+from ..solvers.registry import cold_solver_names
 
 __all__ = ["PATH_COLUMNS", "STATUSES", "Plan", "PlannerSettings", "arrived"]
 
@@ -22,12 +23,6 @@ PATH_COLUMNS = ("x_trailer", "y_trailer", "yaw_trailer", "hitch", "front_steer",
 
 _ANGLE = Real(0.0, math.pi, low_open=True, unit="rad")
 _WEIGHT = Real(0.0, 1000.0)
-
-
-def _refine_solvers() -> tuple[str, ...]:
-    from .refine import refine_solver_names  # (refine builds on these settings)
-
-    return refine_solver_names()
 
 
 @dataclass(frozen=True)
@@ -96,7 +91,7 @@ class PlannerSettings:
         straight (:mod:`~hitchpark.planning.refine`); 0: the path ends where the search stopped.
     refine_solver : str
         The solver of the refined end's NLP: ``fatrop`` (on its stages) or ``ipopt`` (the reference), the
-        same optimum (:data:`~hitchpark.planning.refine.REFINE_SOLVERS`).
+        same optimum (:data:`~hitchpark.solvers.registry.COLD_ROUTES`).
     goal_line_from_m, goal_line_m : float
         The path may end anywhere on the goal line from ``goal_line_from_m`` to ``goal_line_m`` ahead of
         the goal [m] (within the goal tolerance of that segment, heading along it, hitch straight): the
@@ -153,7 +148,7 @@ class PlannerSettings:
     goal_tolerance_yaw: float = checked(math.radians(3.0), _ANGLE)
     goal_tolerance_hitch: float = checked(math.radians(3.0), _ANGLE)
     refine_m: float = checked(20.0, Real(0.0, 100.0, unit="m"))
-    refine_solver: str = checked("fatrop", Choice(_refine_solvers))
+    refine_solver: str = checked("fatrop", Choice(cold_solver_names))
     goal_line_from_m: float = checked(0.0, Real(0.0, 100.0, unit="m"))
     goal_line_m: float = checked(0.0, Real(0.0, 100.0, unit="m"))
     min_clearance_m: float = checked(0.2, Real(0.0, 10.0, unit="m"))

@@ -10,7 +10,7 @@ import numpy as np
 from . import use_headless_backend
 
 if TYPE_CHECKING:
-    from ..studies import IKStudyResult
+    from ..app.ik_study import IKStudyResult
 
 
 def plot_ik_study(result: IKStudyResult, path: str | Path) -> Path:

@@ -16,10 +16,17 @@ extents), :mod:`.rig` (the car, trailer, goal and paths in the plane), :mod:`.fi
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ..app.report import ANIMATION_FILE, ANIMATION_FRAMES
 from ..model.geometry import body_outlines, parking_space, wheel_outlines
 from .animation import animate_maneuver
 from .common import STAGE_COLORS
 from .figures import plot_maneuver
+
+if TYPE_CHECKING:
+    from ..maneuver.result import ManeuverResult
 
 __all__ = [
     "STAGE_COLORS",
@@ -27,5 +34,20 @@ __all__ = [
     "body_outlines",
     "parking_space",
     "plot_maneuver",
+    "render_maneuver",
     "wheel_outlines",
 ]
+
+
+def render_maneuver(
+    result: ManeuverResult, folder: Path, plots: bool = True, animation: bool = True
+) -> dict[str, Path]:
+    """Draw the figures and/or the GIF of ``result`` into ``folder``; return the paths by name (a renderer of
+    :func:`~hitchpark.app.report.save_maneuver` and :func:`~hitchpark.app.report.reproduce`)."""
+    files: dict[str, Path] = {}
+    if plots:
+        for p in plot_maneuver(result, folder):
+            files[p.stem] = p
+    if animation:
+        files["animation"] = animate_maneuver(result, folder / ANIMATION_FILE, max_frames=ANIMATION_FRAMES)
+    return files

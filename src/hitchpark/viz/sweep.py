@@ -11,9 +11,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..control.nmpc import Pose
 from ..model.geometry import parking_space
 from ..model.scene import Scene
+from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
 from ..outputs import check_figure_name, replacing
 from . import use_headless_backend

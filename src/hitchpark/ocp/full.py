@@ -31,8 +31,8 @@ import numpy as np
 from ..model.integrate import rk4
 from ..model.kinematics import full_rhs
 from ..model.vehicle import VehicleTrailer
-from .clearance import ClearanceConstraints
-from .ocp import NMPCSettings
+from .obstacles import ClearanceConstraints
+from .settings import NMPCSettings
 
 __all__ = ["FULL_OCP_INPUT", "FULL_OCP_STATE", "FullParkingProblem"]
 

@@ -15,11 +15,11 @@ from typing import Any
 
 import numpy as np
 
-from .checks import MAX_SPEED, InputError, check_mapping, check_number, check_range, check_values, shown
-from .model.integrate import step_full
-from .model.kinematics import rear_axle_pose
-from .model.state import State, check_state
-from .model.vehicle import VehicleTrailer, check_vehicle
+from ..checks import MAX_SPEED, InputError, check_mapping, check_number, check_range, check_values, shown
+from .integrate import step_full
+from .kinematics import rear_axle_pose
+from .state import State, check_state
+from .vehicle import VehicleTrailer, check_vehicle
 
 __all__ = ["BASE_COLUMNS", "STATE_COLUMNS", "SimulationResult", "State", "Trajectory", "check_state", "simulate"]
 

@@ -1,30 +1,22 @@
-"""The trailer-parking optimal control problem, Eqs. (47)-(57): model, cost, constraints.
+"""The NMPC's settings: its horizon, weights and bounds (what is optimised) and the routes that solve it.
 
-This module says *what* is optimised. How it becomes a nonlinear program
-(:mod:`.transcription`) and which solver solves it (:func:`.nmpc.make_solver`) are chosen
-apart, so solvers can be swapped and the problem extended (longer horizons, more
-states, obstacle constraints) without touching the others.
-
-Everything here lives in the parking frame (Fig. 5): origin at the goal trailer-axle
-position, X along the goal trailer heading, so the parked state is zero.
+Per kind (the paper's trailer-only OCP or the full model's), :data:`KIND_DEFAULTS` gives the horizon, the
+weights of Table 4 and the solver routes; :class:`NMPCSettings` checks every field and resolves what is left
+None. The routes are names in the solver registry (:mod:`hitchpark.solvers`), which knows nothing of parking.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-import casadi as ca
-import numpy as np
-
 from ..checks import InputError, check_choice, check_flag, check_int, check_mapping, check_range, shown
-from ..model.inverse import virtual_steer_bounds
-from ..model.kinematics import TRAILER_INPUT, TRAILER_STATE, trailer_rhs
-from ..model.vehicle import VehicleTrailer
+from ..solvers.registry import ROUTES, solver_names
+from ..solvers.transcription import OCP
 
-__all__ = ["KIND_DEFAULTS", "NMPC_KINDS", "OCP", "NMPCSettings", "PathConstraint", "TrailerParkingProblem"]
+__all__ = ["KIND_DEFAULTS", "MAX_WEIGHT", "NMPC_KINDS", "SINGLE_SHOOTING_SOLVER", "NMPCSettings", "ParkingOCP"]
 
 
 def _diag(name: str, values: Sequence[float], size: int, positive: bool) -> tuple[float, ...]:
@@ -198,8 +190,6 @@ class NMPCSettings:
     jit: bool | None = None
 
     def __post_init__(self) -> None:
-        from .solvers import ROUTES, solver_names
-
         def put(name: str, value: Any) -> None:
             object.__setattr__(self, name, value)
 
@@ -266,104 +256,9 @@ class NMPCSettings:
         put("dual_floor", check_range("nmpc.dual_floor", floor, 0.0, 1e3, low_open=True))
 
 
-class OCP(Protocol):
-    """What a transcription needs of an optimal control problem (the paper's or the full model's)."""
-
-    settings: NMPCSettings
-    n_x: int
-    n_u: int
-    path_constraints: list[PathConstraint]
-    #: Parameters of each prediction step k = 1..N beyond the initial state (the NLP's ``p`` is X_0, then these).
-    n_p: int
-    #: Whether the first prediction step's length is a parameter, the NLP's last (``discrete_dynamics`` then
-    #: takes a step length): the prediction grid stays where it is in time while the controller's samples pass,
-    #: the first step shortening, instead of moving on a fraction of a step each sample
-    #: (:meth:`~.receding.RecedingHorizon._next_first_step`).
-    first_step: bool
+class ParkingOCP(OCP, Protocol):
+    """An OCP of this package: what a transcription needs (:class:`~hitchpark.solvers.transcription.OCP`), its
+    settings the NMPC's (the controllers read the routes and the sample from them)."""
 
     @property
-    def horizon(self) -> int: ...
-
-    def step_rows(self, x: Any, params: Any) -> tuple[list[Any], list[float], list[float]]:
-        """Constraint rows ``(expressions, lower, upper)`` on X_k (k = 1..N) given that step's parameters."""
-        ...
-
-    def discrete_dynamics(self, x: Any, u: Any, dt: Any = None) -> Any:
-        """X_{k+1} from X_k and U_k over ``dt`` [s] (None: the prediction step)."""
-        ...
-
-    def stage_cost(self, x: Any, u: Any, params: Any = None) -> Any:
-        """The cost of stage k; ``params``: step k's parameters (step 1's for k = 0, where X_0 is given)."""
-        ...
-
-    def terminal_cost(self, x: Any, params: Any = None) -> Any: ...
-
-    def state_bounds(self) -> tuple[np.ndarray, np.ndarray] | None: ...
-
-
-#: An extra constraint on stage k: ``(x_k, u_k, k) -> (expr, lower, upper)``, CasADi expressions.
-PathConstraint = Callable[[Any, Any, int], tuple[Any, Any, Any]]
-
-
-class TrailerParkingProblem:
-    """The OCP of Eq. (50): drive the trailer-only model (Eq. 47) to the zero state.
-
-    Attributes
-    ----------
-    n_x, n_u : int
-        Number of states (3: x, y, yaw) and inputs (2: trailer speed, virtual steer).
-    path_constraints : list of PathConstraint
-        Extra stage constraints (empty in the paper); transcriptions add them for k = 0..N-1.
-    """
-
-    state_names = TRAILER_STATE
-    input_names = TRAILER_INPUT
-    n_x = 3
-    n_u = 2
-    n_p = 0
-    first_step = False  # its prediction step is the controller's sample (Eq. 48)
-
-    def __init__(self, vehicle: VehicleTrailer, settings: NMPCSettings | None = None):
-        vehicle.require_hitch_offset()
-        self.vehicle = vehicle
-        self.settings = settings or NMPCSettings(kind="paper")
-        if self.settings.kind != "paper":
-            raise InputError(
-                f"TrailerParkingProblem is the paper's OCP: it needs nmpc.kind 'paper', got {self.settings.kind!r}"
-            )
-        self.path_constraints: list[PathConstraint] = []
-        s = self.settings
-        self._Q = ca.diag(ca.DM(list(s.Q or ())))
-        self._R = ca.diag(ca.DM(list(s.R or ())))
-        self._P = ca.diag(ca.DM(list(s.P or ())))
-
-    @property
-    def horizon(self) -> int:
-        assert self.settings.horizon is not None  # resolved per kind by NMPCSettings
-        return self.settings.horizon
-
-    def discrete_dynamics(self, x: Any, u: Any, dt: Any = None) -> Any:
-        """g(X_k, U_k) = X_k + d_t f(X_k, U_k): the Euler step of Eq. (48) (``dt`` None: d_t)."""
-        return x + (self.settings.dt if dt is None else dt) * trailer_rhs(self.vehicle, x, u)
-
-    def stage_cost(self, x: Any, u: Any, params: Any = None) -> Any:
-        """X_k^T Q X_k + U_k^T R U_k, Eq. (49)."""
-        return ca.bilin(self._Q, x, x) + ca.bilin(self._R, u, u)
-
-    def terminal_cost(self, x: Any, params: Any = None) -> Any:
-        """X_N^T P X_N, Eq. (49)."""
-        return ca.bilin(self._P, x, x)
-
-    def state_bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """Bounds on X_1..X_N: none in the paper's OCP (Eq. 50 bounds only the inputs)."""
-        return None
-
-    def step_rows(self, x: Any, params: Any) -> tuple[list[Any], list[float], list[float]]:
-        """None: the paper's OCP has no parameters beyond X_0."""
-        return [], [], []
-
-    def input_bounds(self, hitch: float) -> tuple[np.ndarray, np.ndarray]:
-        """U_min, U_max at the current hitch angle: speed bounds and Eqs. (56)-(57)."""
-        low, high = virtual_steer_bounds(self.vehicle, hitch, self.settings.virtual_limit)
-        s = self.settings
-        return np.array([s.speed_min, low]), np.array([s.speed_max, high])
+    def settings(self) -> NMPCSettings: ...

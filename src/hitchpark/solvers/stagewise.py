@@ -26,6 +26,8 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from .transcription import MultipleShooting, first_step_weight
+
 __all__ = ["ORACLE", "stagewise_functions"]
 
 #: The NLP's functions replaced, by the names CasADi's solvers give them.
@@ -50,7 +52,6 @@ def stagewise_functions(transcription: Any, solver: ca.Function, prefix: str) ->
     the transcription is not multiple shooting, has path constraints (they may depend on k), or the
     functions do not give what CasADi's give at a random point (then the caller keeps CasADi's).
     """
-    from .transcription import MultipleShooting, first_step_weight  # (the module builds the NLP this mirrors)
 
     pr = transcription.problem
     if not isinstance(transcription, MultipleShooting) or pr.path_constraints:

@@ -22,6 +22,7 @@ import casadi as ca
 
 from ..native import build_library, cache_key, load_cached, resolved_compiler
 from .generated import GeneratedNLP
+from .transcription import MultipleShooting, first_step_weight
 
 __all__ = ["RICCATI_SOURCE", "riccati_functions", "riccati_nlpsol"]
 
@@ -43,7 +44,6 @@ def riccati_functions(transcription: Any, prefix: str) -> dict[str, ca.Function]
     cost, dynamics and rows alone. None where the transcription is not multiple shooting or has path
     constraints (rows that may change with k).
     """
-    from .transcription import MultipleShooting, first_step_weight
 
     pr = transcription.problem
     if not isinstance(transcription, MultipleShooting) or pr.path_constraints:

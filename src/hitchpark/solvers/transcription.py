@@ -1,4 +1,5 @@
-"""Transcriptions of :class:`~.ocp.TrailerParkingProblem` into a nonlinear program.
+"""Transcriptions of an optimal control problem into a nonlinear program: any problem that meets :class:`OCP`
+(the paper's, :class:`hitchpark.ocp.TrailerParkingProblem`, or the full model's).
 
 A transcription turns the OCP into CasADi's ``{x, p, f, g}`` with the initial
 state as the parameter ``p`` (followed by the OCP's ``n_p`` parameters of each
@@ -11,14 +12,73 @@ constraints, which is sparser and better conditioned over long horizons.
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import Any, Protocol
 
 import casadi as ca
 import numpy as np
 
-from .ocp import OCP
+__all__ = [
+    "OCP",
+    "MultipleShooting",
+    "OCPSettings",
+    "PathConstraint",
+    "SingleShooting",
+    "Transcription",
+    "make_transcription",
+    "shifted_rows",
+]
 
-__all__ = ["MultipleShooting", "SingleShooting", "Transcription", "make_transcription", "shifted_rows"]
+
+class OCPSettings(Protocol):
+    """What a transcription reads of an OCP's settings (:class:`hitchpark.ocp.NMPCSettings` has it)."""
+
+    @property
+    def prediction_dt(self) -> float | None: ...
+
+    @property
+    def transcription(self) -> str: ...
+
+
+class OCP(Protocol):
+    """What a transcription needs of an optimal control problem (the paper's or the full model's)."""
+
+    @property
+    def settings(self) -> OCPSettings: ...
+
+    n_x: int
+    n_u: int
+    path_constraints: list[PathConstraint]
+    #: Parameters of each prediction step k = 1..N beyond the initial state (the NLP's ``p`` is X_0, then these).
+    n_p: int
+    #: Whether the first prediction step's length is a parameter, the NLP's last (``discrete_dynamics`` then
+    #: takes a step length): the prediction grid stays where it is in time while the controller's samples pass,
+    #: the first step shortening, instead of moving on a fraction of a step each sample
+    #: (:meth:`~.receding.RecedingHorizon._next_first_step`).
+    first_step: bool
+
+    @property
+    def horizon(self) -> int: ...
+
+    def step_rows(self, x: Any, params: Any) -> tuple[list[Any], list[float], list[float]]:
+        """Constraint rows ``(expressions, lower, upper)`` on X_k (k = 1..N) given that step's parameters."""
+        ...
+
+    def discrete_dynamics(self, x: Any, u: Any, dt: Any = None) -> Any:
+        """X_{k+1} from X_k and U_k over ``dt`` [s] (None: the prediction step)."""
+        ...
+
+    def stage_cost(self, x: Any, u: Any, params: Any = None) -> Any:
+        """The cost of stage k; ``params``: step k's parameters (step 1's for k = 0, where X_0 is given)."""
+        ...
+
+    def terminal_cost(self, x: Any, params: Any = None) -> Any: ...
+
+    def state_bounds(self) -> tuple[np.ndarray, np.ndarray] | None: ...
+
+
+#: An extra constraint on stage k: ``(x_k, u_k, k) -> (expr, lower, upper)``, CasADi expressions.
+PathConstraint = Callable[[Any, Any, int], tuple[Any, Any, Any]]
 
 
 class Transcription:

@@ -8,12 +8,12 @@ from typing import Any
 
 import numpy as np
 
-from .checks import InputError
-from .model.integrate import rk4
-from .model.inverse import actual_virtual_steer, front_steer_from_virtual, trailer_speed_from_virtual
-from .model.kinematics import full_rhs, trailer_rhs
-from .model.vehicle import VehicleTrailer
-from .sim import MAX_SPEED, Trajectory
+from ..checks import InputError
+from ..model.integrate import rk4
+from ..model.inverse import actual_virtual_steer, front_steer_from_virtual, trailer_speed_from_virtual
+from ..model.kinematics import full_rhs, trailer_rhs
+from ..model.simulate import MAX_SPEED, Trajectory
+from ..model.vehicle import VehicleTrailer
 
 __all__ = ["TABLE2_VEHICLE", "IKStudyResult", "default_virtual_profile", "inverse_kinematics_study"]
 
