@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from hitchpark.control.guard import Guard
-from hitchpark.control.nmpc import NMPCStep
 from hitchpark.control.path_tracking import END_TOLERANCE_M, PathTracker, TrackingSettings, direction_segments
+from hitchpark.control.step import ControlStep
 from hitchpark.model import VehicleTrailer
 from hitchpark.model.plant import Measurement, Plant, PlantSettings
 from hitchpark.model.scene import Obstacle, Scene
@@ -31,7 +31,7 @@ def test_direction_segments_share_the_row_where_direction_changes(direction, exp
     assert direction_segments(np.array(direction)) == expected
 
 
-def drive(tracker: PathTracker, start: State, steps: int = 2000) -> tuple[Plant, list[NMPCStep]]:
+def drive(tracker: PathTracker, start: State, steps: int = 2000) -> tuple[Plant, list[ControlStep]]:
     plant = Plant(PlantSettings(kind="ideal"), V, start, 0.1)
     m = plant.sense()
     tracker.reset()
@@ -85,9 +85,17 @@ def test_the_tracker_gives_up_when_the_car_is_far_off_its_path():
 WALL = Scene((Obstacle("wall", ((-6.0, -5.0), (-5.0, -5.0), (-5.0, 5.0), (-6.0, 5.0))),))
 
 
-def step(speed: float, predicted: np.ndarray | None = None) -> NMPCStep:
+def step(speed: float, predicted: np.ndarray | None = None) -> ControlStep:
     p = np.zeros((0, 0)) if predicted is None else predicted
-    return NMPCStep(speed, 0.0, speed, 0.0, math.nan, math.nan, True, False, "", p, np.zeros((0, 0)))
+    return ControlStep(
+        trailer_speed=speed,
+        virtual_steer=0.0,
+        rear_speed=speed,
+        front_steer=0.0,
+        ok=True,
+        stop=False,
+        predicted_states=p,
+    )
 
 
 def test_guard_stops_a_command_that_is_too_close_and_slows_one_near_the_scene():

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from hitchpark.checks import InputError
 from hitchpark.control.guard import Guard
-from hitchpark.control.receding import NMPCStep
+from hitchpark.control.step import ControlStep
 from hitchpark.model import VehicleTrailer
 from hitchpark.model.checker import SceneChecker, body_geometries
 from hitchpark.model.collision import body_shapes, swept_clearance
@@ -150,7 +150,7 @@ def test_the_guard_stops_a_car_that_may_be_longer_than_it_believes():
     wall = Scene((Obstacle("wall", [[9.0, -4.0], [9.5, -4.0], [9.5, 4.0], [9.0, 4.0]]),))
     nose = V.trailer_length + V.hitch_offset + V.wheelbase + V.front_overhang  # straight, trailer axle at x = 0
     measurement = Measurement(0.0, State(9.0 - 0.35 - nose, 0.0, 0.0, 0.0), 0.0, 0.3)
-    forward = NMPCStep(0.3, 0.0, 0.3, 0.0, math.nan, math.nan, True, False, "", np.zeros((0, 0)), np.zeros((0, 0)))
+    forward = ControlStep(trailer_speed=0.3, virtual_steer=0.0, rear_speed=0.3, front_steer=0.0, ok=True, stop=False)
     exact = Guard(V, wall, 0.2, 0.03, 0.1, 0).check(measurement, Pose(), forward)
     doubtful = Guard(replace(V, length_tolerance=0.1), wall, 0.2, 0.03, 0.1, 0).check(measurement, Pose(), forward)
     assert exact.ok and 0.0 < exact.rear_speed <= 0.3

@@ -13,9 +13,12 @@ from ..solvers.registry import ROUTES, make_solver, register_solver
 from ..solvers.transcription import MultipleShooting, SingleShooting, make_transcription
 from .nmpc import FullNMPC, NMPCStep, TrailerNMPC, make_nmpc
 from .pure_pursuit import ForwardPursuit, PurePursuitSettings
+from .step import Controller, ControlStep
 
 __all__ = [
     "ROUTES",
+    "ControlStep",
+    "Controller",
     "ForwardPursuit",
     "FullNMPC",
     "FullParkingProblem",

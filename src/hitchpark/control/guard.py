@@ -23,7 +23,7 @@ from ..model.plant import Measurement
 from ..model.scene import Scene
 from ..model.state import Pose, from_goal_frame
 from ..model.vehicle import VehicleTrailer
-from .nmpc import NMPCStep
+from .step import ControlStep
 
 __all__ = ["BODY_SPEED_RATIO", "Guard"]
 
@@ -57,7 +57,7 @@ class Guard:
         """Whether every configuration (rows x_t, y_t, yaw_t, hitch) keeps ``min_clearance_m + margin_m``."""
         return bool(np.all(self.checker.clearances(np.asarray(configs, dtype=float)) >= self.need))
 
-    def check(self, measurement: Measurement, goal: Pose, step: NMPCStep) -> NMPCStep:
+    def check(self, measurement: Measurement, goal: Pose, step: ControlStep) -> ControlStep:
         """``step`` as is, slowed, or turned into a stop when it would bring a body too close."""
         if not step.ok or step.stop:
             return step

@@ -29,6 +29,7 @@ from ..ocp.reference import PathReference
 from ..ocp.settings import NMPCSettings
 from ..ocp.trailer import TrailerParkingProblem
 from .receding import NLPProblem, NMPCStep, Program, RecedingHorizon, build_program, checked_settings
+from .step import ControlStep
 
 __all__ = ["FullNMPC", "NLPProblem", "NMPCStep", "TrailerNMPC", "make_nmpc"]
 
@@ -48,14 +49,14 @@ class TrailerNMPC(RecedingHorizon):
         # Reverse straight at half the speed bound; u = 0 would be a stationary point of the speed.
         return np.tile([0.5 * self.settings.speed_min, 0.0], (self.problem.horizon, 1))
 
-    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command] = ()) -> NMPCStep:
+    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command] = ()) -> ControlStep:
         """One step from a measurement (the paper's controller ignores the actuators and the delay)."""
         s = measurement.state
         return self.step(s.x, s.y, s.yaw, s.hitch, goal)
 
     def step(
         self, x_trailer: float, y_trailer: float, yaw_trailer: float, hitch: float, goal: Pose | None = None
-    ) -> NMPCStep:
+    ) -> ControlStep:
         """Solve the OCP from the current configuration and return U_0 and the vehicle command."""
         State(x_trailer, y_trailer, yaw_trailer, hitch)  # finite and in range, or an InputError
         goal = check_goal(goal)
@@ -81,7 +82,19 @@ class TrailerNMPC(RecedingHorizon):
         if stop:
             rear = 0.0
         self._last_steer = front
-        return NMPCStep(v_t, d_t, rear, front, cost, solve_ms, True, stop, status, states, inputs)
+        return ControlStep(
+            trailer_speed=v_t,
+            virtual_steer=d_t,
+            rear_speed=rear,
+            front_steer=front,
+            ok=True,
+            stop=stop,
+            status=status,
+            cost=cost,
+            solve_ms=solve_ms,
+            predicted_states=states,
+            predicted_inputs=inputs,
+        )
 
 
 class FullNMPC(RecedingHorizon):
@@ -262,7 +275,7 @@ class FullNMPC(RecedingHorizon):
             x = np.asarray(self._model_step(x, [rate, accel])).ravel()
         return x
 
-    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command] = ()) -> NMPCStep:
+    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command] = ()) -> ControlStep:
         check_instance("measurement", measurement, Measurement)
         self._goal = check_goal(goal)
         x0 = self._state(measurement, self._goal, in_flight)
@@ -294,7 +307,7 @@ class FullNMPC(RecedingHorizon):
         limit = self.vehicle.max_steer  # the solver's tolerance must not leak past the limit
         return clamp(step.predicted_states[0, STEER], -limit, limit)
 
-    def _plan(self, x0: np.ndarray, free_steer: bool = False) -> NMPCStep:
+    def _plan(self, x0: np.ndarray, free_steer: bool = False) -> ControlStep:
         assert isinstance(self.problem, FullParkingProblem)
         v = self.vehicle
         u_min, u_max = self.problem.input_bounds()
@@ -315,7 +328,19 @@ class FullNMPC(RecedingHorizon):
         hitch = float(x0[3])
         trailer_speed = float(trailer_speed_from_rear_speed(v, hitch, speed, steer))  # Eq. (18)
         virtual = float(virtual_steer_from_front(v, hitch, steer))  # Eq. (56)
-        return NMPCStep(trailer_speed, virtual, speed, steer, cost, solve_ms, True, stop, status, states, inputs)
+        return ControlStep(
+            trailer_speed=trailer_speed,
+            virtual_steer=virtual,
+            rear_speed=speed,
+            front_steer=steer,
+            ok=True,
+            stop=stop,
+            status=status,
+            cost=cost,
+            solve_ms=solve_ms,
+            predicted_states=states,
+            predicted_inputs=inputs,
+        )
 
 
 #: Rounds of the obstacle OCP from a cold start, each around the last one's iterate (:meth:`FullNMPC._cold_start`).

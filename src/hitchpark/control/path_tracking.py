@@ -33,8 +33,8 @@ from ..model.kinematics import rear_axle_pose
 from ..model.plant import Command, Measurement
 from ..model.state import Pose, clamp, wrap_angle
 from ..model.vehicle import VehicleTrailer
-from .nmpc import NMPCStep
 from .pure_pursuit import command_step, forward_steer_limit, pursuit_steer
+from .step import ControlStep
 
 __all__ = ["PathTracker", "TrackingSettings", "direction_segments"]
 
@@ -193,7 +193,7 @@ class PathTracker:
         self._progress(*self._tracked(state)[:2])
         return self.steer(state)
 
-    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command] = ()) -> NMPCStep:
+    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command] = ()) -> ControlStep:
         """The command for the next sample (``goal`` is not used: the path leads there)."""
         state = measurement.state.as_array()
         v = self.vehicle

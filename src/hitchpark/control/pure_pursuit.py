@@ -25,7 +25,7 @@ from ..model.kinematics import rear_axle_pose, trailer_speed_from_rear_speed
 from ..model.plant import Command, Measurement
 from ..model.state import Pose, clamp, to_goal_frame, wrap_angle
 from ..model.vehicle import VehicleTrailer
-from .nmpc import NMPCStep
+from .step import ControlStep
 
 __all__ = [
     "ForwardPursuit",
@@ -161,7 +161,7 @@ class ForwardPursuit:
             return None
         return pure_pursuit_steer(self.vehicle, goal, self.settings, measurement.state.as_array(), self.limit)
 
-    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command] = ()) -> NMPCStep:
+    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command] = ()) -> ControlStep:
         state = measurement.state.as_array()
         v = self.vehicle
         done = forward_done(goal, self.settings, state)
@@ -172,19 +172,15 @@ class ForwardPursuit:
 
 def command_step(
     vehicle: VehicleTrailer, hitch: float, speed: float, steer: float, ok: bool, stop: bool, status: str
-) -> NMPCStep:
-    """A command of a controller that does not optimise, as an :class:`NMPCStep` (no cost, no solve, no
+) -> ControlStep:
+    """A command of a controller that does not optimise, as a :class:`~.step.ControlStep` (no cost, no solve, no
     prediction), with the trailer's view of it: Eqs. (18) and (56)."""
-    return NMPCStep(
-        float(trailer_speed_from_rear_speed(vehicle, hitch, speed, steer)),  # Eq. (18)
-        float(virtual_steer_from_front(vehicle, hitch, steer)),  # Eq. (56)
-        speed,
-        steer,
-        math.nan,
-        math.nan,
-        ok,
-        stop,
-        status,
-        np.zeros((0, 0)),
-        np.zeros((0, 0)),
+    return ControlStep(
+        trailer_speed=float(trailer_speed_from_rear_speed(vehicle, hitch, speed, steer)),  # Eq. (18)
+        virtual_steer=float(virtual_steer_from_front(vehicle, hitch, steer)),  # Eq. (56)
+        rear_speed=speed,
+        front_steer=steer,
+        ok=ok,
+        stop=stop,
+        status=status,
     )

@@ -17,12 +17,13 @@ from typing import Any
 import numpy as np
 
 from ..checks import InputError, check_instance
-from ..model.plant import Command, Measurement
+from ..model.plant import Measurement
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer, check_vehicle
 from ..ocp.settings import NMPCSettings, ParkingOCP
 from ..solvers.registry import ROUTES, casadi_reason, make_solver, takes_duals, takes_free_initial
 from ..solvers.transcription import make_transcription, shifted_rows
+from .step import ControlStep
 
 __all__ = ["NLPProblem", "NMPCStep"]
 
@@ -54,32 +55,8 @@ class NLPProblem:
         return out
 
 
-@dataclass(frozen=True)
-class NMPCStep:
-    """What one NMPC step decided.
-
-    ``rear_speed``/``front_steer`` are the vehicle command; ``trailer_speed``/``virtual_steer``
-    the same motion in the trailer's virtual inputs (the paper's U_0, or Eqs. (18) and (56) of
-    the command for the full model). ``ok`` is False when the solver failed or gave a
-    non-finite answer; the command is then a stop (zero speed, steer held) and ``status``
-    says why. ``stop`` is True when the optimal speed is zero: the stage is over.
-    """
-
-    trailer_speed: float
-    virtual_steer: float
-    rear_speed: float
-    front_steer: float
-    cost: float
-    solve_ms: float
-    ok: bool
-    stop: bool
-    status: str
-    predicted_states: np.ndarray
-    predicted_inputs: np.ndarray
-
-    @property
-    def command(self) -> Command:
-        return Command(self.rear_speed, self.front_steer)
+#: The record of an NMPC step: a :class:`~.step.ControlStep` (the name it had when only the NMPCs made one).
+NMPCStep = ControlStep
 
 
 def checked_settings(vehicle: Any, settings: Any, kind: str) -> NMPCSettings:
@@ -362,7 +339,19 @@ class RecedingHorizon:
 
     def _stop(self, status: str, cost: float, solve_ms: float, states: np.ndarray, inputs: np.ndarray) -> NMPCStep:
         self._last_inputs = self._last_states = None
-        return NMPCStep(0.0, 0.0, 0.0, self._last_steer, cost, solve_ms, False, True, status, states, inputs)
+        return ControlStep(
+            trailer_speed=0.0,
+            virtual_steer=0.0,
+            rear_speed=0.0,
+            front_steer=self._last_steer,
+            ok=False,
+            stop=True,
+            status=status,
+            cost=cost,
+            solve_ms=solve_ms,
+            predicted_states=states,
+            predicted_inputs=inputs,
+        )
 
     def _refuse(self, state: Sequence[float] | np.ndarray, hitch: float) -> NMPCStep | None:
         refuse = ""

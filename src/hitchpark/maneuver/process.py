@@ -25,7 +25,8 @@ from typing import Any, Protocol
 import numpy as np
 
 from ..checks import InputError, check_instance, check_text
-from ..control.nmpc import FullNMPC, NMPCStep, TrailerNMPC, make_nmpc
+from ..control.nmpc import FullNMPC, TrailerNMPC, make_nmpc
+from ..control.step import ControlStep
 from ..model.collision import MAX_STEP_M, swept_contact
 from ..model.inverse import virtual_steer_from_front
 from ..model.kinematics import trailer_speed_from_rear_speed
@@ -106,7 +107,7 @@ class _Loop:
             clamp(command.front_steer, last.front_steer - steer_step, last.front_steer + steer_step),
         )
 
-    def step(self, stage: int, measurement: Measurement, command: Command, why: NMPCStep | None = None) -> bool:
+    def step(self, stage: int, measurement: Measurement, command: Command, why: ControlStep | None = None) -> bool:
         """Apply one command and record the row; False (and the outcome) on a jackknife."""
         vehicle = self.plant.vehicle
         command = Command(command.rear_speed, clamp(command.front_steer, -vehicle.max_steer, vehicle.max_steer))

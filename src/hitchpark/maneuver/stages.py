@@ -16,9 +16,10 @@ from typing import Protocol
 
 from ..checks import InputError
 from ..control.guard import Guard
-from ..control.nmpc import FullNMPC, NMPCStep, TrailerNMPC, make_nmpc
+from ..control.nmpc import FullNMPC, TrailerNMPC, make_nmpc
 from ..control.path_tracking import PathTracker
 from ..control.pure_pursuit import ForwardPursuit
+from ..control.step import ControlStep
 from ..model.plant import Command, Measurement
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
@@ -61,7 +62,7 @@ class Stage(Protocol):
         """Start afresh at standstill; return the steer to set before moving (None: move at once)."""
         ...
 
-    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> NMPCStep:
+    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> ControlStep:
         """The command for the next sample; ``stop`` when the stage is over, ``ok`` False on failure."""
         ...
 
@@ -98,7 +99,7 @@ class ReverseStage:
             self.nmpc.follow(self.reference)
         return self.nmpc.initial_steer(measurement, goal)
 
-    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> NMPCStep:
+    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> ControlStep:
         step = self.nmpc.act(measurement, goal, in_flight)
         if self.reference is not None and self.reference.deviation > self.max_deviation_m:
             self.nmpc.reset(step.front_steer)
@@ -128,7 +129,7 @@ class ForwardStage:
         self.pursuit.reset(measurement.front_steer)
         return self.pursuit.initial_steer(measurement, goal)
 
-    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> NMPCStep:
+    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> ControlStep:
         return self.pursuit.act(measurement, goal, in_flight)
 
 
@@ -150,7 +151,7 @@ class TrackingStage:
         self.tracker.reset(measurement.front_steer)
         return self.tracker.initial_steer(measurement, goal)
 
-    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> NMPCStep:
+    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> ControlStep:
         return self.tracker.act(measurement, goal, in_flight)
 
 
@@ -172,7 +173,7 @@ class GuardedStage:
     def begin(self, measurement: Measurement, goal: Pose) -> float | None:
         return self.stage.begin(measurement, goal)
 
-    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> NMPCStep:
+    def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> ControlStep:
         return self.guard.check(measurement, goal, self.stage.act(measurement, goal, in_flight))
 
 
