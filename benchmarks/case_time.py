@@ -29,9 +29,11 @@ import hitchpark.model.plant as plant
 import hitchpark.ocp.reference as reference
 import hitchpark.planning.endgame as endgame
 import hitchpark.planning.motion as motion
+import hitchpark.planning.rollouts as rollouts
 import hitchpark.planning.search as search
 import hitchpark.solvers.generated as generated
-from hitchpark.app.sweep import build_config, controller_for, draw_starts
+from hitchpark.app.starts import draw_starts
+from hitchpark.app.sweep import build_config, controller_for
 from hitchpark.control.nmpc import FullNMPC
 from hitchpark.maneuver.process import park
 
@@ -47,7 +49,7 @@ PARTS = (
     (search, "opening", "planning: opening"),
     (search._Search, "_astar", "  A* (the opening's reverse-only search, or the search)"),
     (endgame.EndGame, "dubins_shots", "  Dubins shots"),
-    (motion.PathPursuit, "run", "    their pursuit"),
+    (rollouts.PathPursuit, "run", "    their pursuit"),
     (endgame.EndGame, "line_shots", "  goal-line shots"),
     (motion.PrimitiveBatch, "run", "  primitives"),
     (search, "refine_plan", "planning: refinement"),

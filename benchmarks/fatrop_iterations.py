@@ -31,7 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from hitchpark.app.bench import BENCH_OCPS, _time_route, own_problems, record_problems
+from hitchpark.app.bench import BENCH_OCPS, own_problems, record_problems
+from hitchpark.app.timing import time_route
 from hitchpark.model import VehicleTrailer
 from hitchpark.solvers.compiled import compiled_nlpsol
 from hitchpark.solvers.registry import ROUTES, make_solver, quiet_stderr
@@ -106,7 +107,7 @@ def main() -> None:
                 if count is not None:
                     own[label].append(int(count))
         its = np.array(iterations)
-        timed_calls = _time_route(timed, problems)
+        timed_calls = time_route(timed, problems)
         ms = float(np.median(timed_calls.wall))
         # The timed calls' own iterations (from the controller's multipliers).
         counted = np.isfinite(timed_calls.iterations)

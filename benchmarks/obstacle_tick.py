@@ -3,7 +3,7 @@
     python benchmarks/obstacle_tick.py [SCENE ...]
 
 Parks each built-in scene of obstacles (default: all five) once to warm up, then once with the compiled
-lines (``ocp/separating_lines.c``) and once with :func:`~hitchpark.ocp.obstacles.separating_lines_numpy`
+lines (``ocp/separating_lines.c``) and once with :func:`~hitchpark.ocp.separating.separating_lines_numpy`
 alone, in this process, and prints per run the median and largest time a call of: ``separating_lines``,
 the lines of a step (``ClearanceConstraints.parameters``), the NMPC's step (``FullNMPC.act``) and the
 guard's check (``Guard.check``); then whether the two maneuvers are the same to the last bit (every column of
@@ -25,7 +25,7 @@ from hitchpark.control.guard import Guard
 from hitchpark.control.nmpc import FullNMPC
 from hitchpark.maneuver import ManeuverResult, park
 from hitchpark.maneuver.scenario import OBSTACLE_SUITE, builtin_scenario
-from hitchpark.ocp import obstacles
+from hitchpark.ocp import obstacles, separating
 
 #: (owner, attribute, label) of the timed parts.
 PARTS = (
@@ -52,12 +52,12 @@ def run(name: str, compiled: bool) -> tuple[ManeuverResult, dict[str, list[float
     scenario = builtin_scenario(name)
     times: dict[str, list[float]] = {label: [] for _, _, label in PARTS}
     originals = [(owner, attribute, getattr(owner, attribute)) for owner, attribute, _ in PARTS]
-    kernel = obstacles._kernel
+    kernel = separating._kernel
     try:
         for (owner, attribute, label), (_, _, original) in zip(PARTS, originals, strict=True):
             setattr(owner, attribute, timed(original, times[label]))
         if not compiled:
-            obstacles._kernel = lambda *_: None  # type: ignore[assignment]
+            separating._kernel = lambda *_: None  # type: ignore[assignment]
         result = park(
             scenario.vehicle,
             scenario.start,
@@ -68,7 +68,7 @@ def run(name: str, compiled: bool) -> tuple[ManeuverResult, dict[str, list[float
             scene=scenario.scene,
         )
     finally:
-        obstacles._kernel = kernel  # type: ignore[assignment]
+        separating._kernel = kernel  # type: ignore[assignment]
         for owner, attribute, original in originals:
             setattr(owner, attribute, original)
     return result, times
@@ -89,7 +89,7 @@ def main(names: list[str]) -> int:
     if unknown:
         print(f"unknown scene {unknown[0]!r}; the scenes are {', '.join(OBSTACLE_SUITE)}", file=sys.stderr)
         return 2
-    print(f"compiled lines available: {obstacles.prepare_lines()}")
+    print(f"compiled lines available: {separating.prepare_lines()}")
     for name in names or OBSTACLE_SUITE:
         run(name, True)  # warm-up: everything compiled or loaded
         results = {}

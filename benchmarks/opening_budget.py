@@ -24,7 +24,8 @@ import numpy as np
 
 import hitchpark.planning.opening as opening
 import hitchpark.planning.search as search
-from hitchpark.app.sweep import build_config, draw_starts
+from hitchpark.app.starts import draw_starts
+from hitchpark.app.sweep import build_config
 from hitchpark.planning import plan
 
 #: (start index, status, nodes expanded, seconds) of each reverse-only search of this worker's plans.

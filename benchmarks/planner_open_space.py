@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hitchpark.app.sweep import DEFAULT_REGION, draw_starts
+from hitchpark.app.starts import DEFAULT_REGION, draw_starts
 from hitchpark.maneuver.scenario import load_scenario
 from hitchpark.model import Pose, VehicleTrailer
 from hitchpark.model.scene import Scene

@@ -17,7 +17,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from hitchpark.app.sweep import DEFAULT_REGION, draw_starts
+from hitchpark.app.starts import DEFAULT_REGION, draw_starts
 from hitchpark.maneuver.scenario import OBSTACLE_SUITE, builtin_scenario
 from hitchpark.model import Pose, VehicleTrailer
 from hitchpark.model.scene import Scene

@@ -13,6 +13,7 @@ import pytest
 from hitchpark.app import bench as bench_module
 from hitchpark.app.bench import BENCH_OCPS, OCPBench, RouteBench, bench_table, run_bench
 from hitchpark.app.realtime import WallClock, run_realtime
+from hitchpark.app.timing import time_interleaved
 from hitchpark.cli import EXIT_BAD_INPUT, main
 from hitchpark.control import NMPCSettings
 from hitchpark.control.nmpc import NLPProblem, make_nmpc
@@ -111,7 +112,7 @@ def test_timed_jobs_take_turns_each_solving_its_problems_in_order_once():
     log: list = []
     a = [_Problem(float(i)) for i in range(8)]
     b = [_Problem(float(100 + i)) for i in range(4)] + [_Problem(-1.0)]
-    timed = bench_module.time_interleaved(
+    timed = time_interleaved(
         {"a": (_Solver("a", log), a, float("inf")), "b": (_Solver("b", log), b, float("inf"))}, rounds=4
     )
     warm = len(a) + len(b)  # each job's first (up to 20) problems are solved once, untimed, before any timing
@@ -145,7 +146,7 @@ class _DualProblem(_Problem):
 def test_timed_jobs_give_the_recorded_multipliers_only_to_a_solver_that_takes_them():
     log: list = []
     problems = [_DualProblem(float(i)) for i in range(3)]
-    bench_module.time_interleaved(
+    time_interleaved(
         {"warm": (_DualSolver("warm", log), problems, float("inf")), "plain": (_Solver("plain", log), problems, 1e9)},
         rounds=1,
     )
@@ -156,7 +157,7 @@ def test_timed_jobs_give_the_recorded_multipliers_only_to_a_solver_that_takes_th
 def test_a_timed_job_stops_once_its_budget_is_spent_while_the_others_go_on():
     log: list = []
     problems = [_Problem(float(i)) for i in range(40)]
-    timed = bench_module.time_interleaved(
+    timed = time_interleaved(
         {
             "slow": (_Solver("slow", log, sleep_s=0.002), problems, 0.01),
             "fast": (_Solver("fast", log), problems, float("inf")),

@@ -10,9 +10,10 @@ import pytest
 
 from hitchpark import InputError
 from hitchpark.app import CaseRecord, draw_starts, run_sweep, scan_records
-from hitchpark.app import sweep as sweep_module
+from hitchpark.app import starts as starts_module
 from hitchpark.app.records import RECORD_FIELDS
-from hitchpark.app.sweep import Region, config_from_scenario, draw_clear_starts
+from hitchpark.app.starts import Region, draw_clear_starts
+from hitchpark.app.sweep import config_from_scenario
 from hitchpark.cli import EXIT_BAD_INPUT, main
 from hitchpark.maneuver.scenario import builtin_scenario, check_start_clear, load_scenario
 
@@ -91,7 +92,7 @@ def test_open_space_draws_are_unchanged(config):
 
 
 def test_a_region_that_always_collides_is_refused(config, monkeypatch):
-    monkeypatch.setattr(sweep_module, "_MIN_DRAWS", 40)
+    monkeypatch.setattr(starts_module, "_MIN_DRAWS", 40)
     inside = replace(config, region=Region(x=(11.0, 12.0), y=(-6.0, -5.0), yaw_deg=(0, 0), hitch_deg=(0, 0)))
     with pytest.raises(InputError, match=r"only 0 of 400 starts drawn .* keep clear of the scene"):
         inside.draw()

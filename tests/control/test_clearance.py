@@ -19,14 +19,9 @@ from hitchpark.model.geometry import body_corners
 from hitchpark.model.plant import Measurement
 from hitchpark.model.scene import Area, Obstacle, Scene
 from hitchpark.model.state import Pose, State, from_goal_frame
-from hitchpark.ocp import obstacles as clearance_module
-from hitchpark.ocp.obstacles import (
-    REACH_M,
-    ClearanceConstraints,
-    convex_pieces,
-    separating_lines,
-    separating_lines_numpy,
-)
+from hitchpark.ocp import separating as separating_module
+from hitchpark.ocp.obstacles import REACH_M, ClearanceConstraints, convex_pieces
+from hitchpark.ocp.separating import separating_lines, separating_lines_numpy
 
 coordinate = st.floats(-4.0, 4.0)
 
@@ -74,7 +69,7 @@ grid_or_not = st.one_of(coordinate, st.integers(-3, 3).map(float))
 def test_the_compiled_lines_are_numpys_to_the_last_bit(jit_cache, data):
     """Compiled (separating_lines.c), the lines are NumPy's bit for bit: bodies as segments and polygons,
     one set of segments for every body or each its own, segments of zero length, ties of the nearest pair."""
-    assert clearance_module._kernel(True, str(jit_cache[0])) is not None  # the compiled code, not NumPy again
+    assert separating_module._kernel(True, str(jit_cache[0])) is not None  # the compiled code, not NumPy again
     k, c, m = data.draw(st.integers(1, 4)), data.draw(st.sampled_from([2, 4])), data.draw(st.integers(1, 5))
     each_own = data.draw(st.booleans())
 
@@ -104,7 +99,7 @@ def test_the_compiled_lines_refuse_shapes_that_do_not_fit(jit_cache):
 def test_where_the_compiler_refuses_the_lines_are_numpys(jit_cache, monkeypatch):
     """A C compiler that fails leaves the NumPy lines: the same answers, nothing left half-built."""
     monkeypatch.setenv("CC", "false")  # found on the path, compiles nothing
-    assert clearance_module._kernel(True, str(jit_cache[0])) is None
+    assert separating_module._kernel(True, str(jit_cache[0])) is None
     points, ends = np.array([[[0.0, 1.0], [1.0, 1.0], [1.0, 2.0], [0.0, 2.0]]]), np.array([[[-1.0, 0.0], [2.0, 0.0]]])
     distance, n, h = separating_lines(points, ends, np.array([[0.0, 1.0]]))
     assert distance[0, 0] == 1.0 and np.array_equal(n[0, 0], [0.0, 1.0]) and h[0, 0] == 0.0
@@ -119,7 +114,7 @@ def test_a_scenes_lines_are_the_same_compiled_or_not(jit_cache, monkeypatch):
     start = np.array([1.0, 0.0, 0.0, 0.0])
     plans = [start + np.cumsum(rng.normal(0.0, [0.4, 0.2, 0.05, 0.05], (11, 4)), axis=0) for _ in range(8)]
     compiled = [lines.parameters(goal, plan, keep_warm=True) for plan in plans]
-    monkeypatch.setattr(clearance_module, "_kernel", lambda *_: None)
+    monkeypatch.setattr(separating_module, "_kernel", lambda *_: None)
     for plan, got in zip(plans, compiled, strict=True):
         assert np.array_equal(got, lines.parameters(goal, plan, keep_warm=True))
     assert any(np.any(got[2::3] != -1.0) for got in compiled)  # lines were drawn, not only unused slots

@@ -382,11 +382,11 @@ def test_nothing_compiles_once_the_planners_clock_runs_among_obstacles(jit_cache
     """The end-game's pursuits compile too, one library per size of reference: before the safety net's clock
     starts, with the rollouts. The search's budget is a count, so a cold cache finds the warm cache's path."""
     from hitchpark import native
-    from hitchpark.planning import plan, search
+    from hitchpark.planning import plan, planner
 
     clock = {"running": False}
     built_late: list[str] = []
-    real_prepare, real_cached = search._prepare, native.cached_library
+    real_prepare, real_cached = planner.prepare, native.cached_library
 
     def prepare(*args):
         real_prepare(*args)
@@ -400,7 +400,7 @@ def test_nothing_compiles_once_the_planners_clock_runs_among_obstacles(jit_cache
 
         return real_cached(name, key, recorded, rebuild)
 
-    monkeypatch.setattr(search, "_prepare", prepare)
+    monkeypatch.setattr(planner, "prepare", prepare)
     monkeypatch.setattr(native, "cached_library", cached)
     scenario = builtin_scenario("driveway")
     margin = scenario.settings.success.min_clearance_m + scenario.settings.process.plan_margin_m

@@ -19,7 +19,8 @@ from hitchpark.model.state import State, to_goal_frame
 from hitchpark.planning import PATH_COLUMNS, Plan, PlannerSettings, plan
 from hitchpark.planning.dubins import dubins_words, sample_word
 from hitchpark.planning.endgame import EndGame
-from hitchpark.planning.motion import PathPursuit, PrimitiveBatch, _pursuit_step_function
+from hitchpark.planning.motion import PrimitiveBatch
+from hitchpark.planning.rollouts import PathPursuit, _pursuit_step_function
 from hitchpark.planning.settings import arrived
 
 VEHICLE = VehicleTrailer()

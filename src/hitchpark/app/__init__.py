@@ -8,18 +8,10 @@ of many random starts (``hitchpark sweep``, :mod:`.sweep`).
 """
 
 from .executors import Executor, executor_names, make_executor, register_executor, sweep_executor
-from .records import CaseRecord, Start, case_record, format_summary, scan_records, summarize
-from .sweep import (
-    DEFAULT_REGION,
-    Region,
-    SweepConfig,
-    SweepOutcome,
-    build_config,
-    draw_starts,
-    load_settings,
-    parse_region,
-    run_sweep,
-)
+from .records import CaseRecord, Start, case_record, scan_records
+from .starts import DEFAULT_REGION, Region, draw_starts, parse_region
+from .summary import format_summary, summarize
+from .sweep import SweepConfig, SweepOutcome, build_config, load_settings, run_sweep
 
 __all__ = [
     "DEFAULT_REGION",

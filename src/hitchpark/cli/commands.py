@@ -172,7 +172,7 @@ def _cmd_plot(args: argparse.Namespace) -> int:
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from ..app.executors import sweep_executor
-    from ..app.records import format_summary
+    from ..app.summary import format_summary
     from ..app.sweep import build_config, run_sweep
     from ..io import write_json
     from ..outputs import check_figure_name, check_output_files

@@ -13,8 +13,8 @@ machine) / ``planner_timeout`` (a wall-clock safety net). The search stops withi
 goal with the hitch and the steer straight.
 """
 
+from .planner import plan
 from .prepare import prepare
-from .search import plan
 from .settings import PATH_COLUMNS, STATUSES, Plan, PlannerSettings
 
 __all__ = ["PATH_COLUMNS", "STATUSES", "Plan", "PlannerSettings", "plan", "prepare"]

@@ -31,7 +31,7 @@ from ..model.state import Pose, to_goal_frame, wrap_angle
 from ..model.vehicle import VehicleTrailer
 from .dubins import dubins_words, sample_word
 from .grid import Screen
-from .motion import GoalShot, PathPursuit
+from .rollouts import GoalShot, PathPursuit
 from .settings import PlannerSettings, arrived
 from .tree import GoalTree
 
@@ -122,7 +122,7 @@ class EndGame:
         Only references up to ``max_length`` (trailer axle, to the goal) are pursued. A caller that takes
         the shortest landing it accepts can say which it accepts (``takes``) and how long a landing it has
         already (``within``, in samples): the pursuit then stops once no landing still to come can be
-        shorter (:meth:`~.motion.PathPursuit.run`), and every landing up to there is in the answer.
+        shorter (:meth:`~.rollouts.PathPursuit.run`), and every landing up to there is in the answer.
         """
         s = self.settings
         gx, gy, gyaw = self.in_goal_frame(state)
@@ -295,7 +295,7 @@ class EndGame:
         )
 
     def _lines_ended(self) -> Callable[[np.ndarray], bool]:
-        """``ended`` of one goal-line shot (:meth:`.motion.GoalShot.run`), asked about its runs as they grow:
+        """``ended`` of one goal-line shot (:meth:`.rollouts.GoalShot.run`), asked about its runs as they grow:
         no run can still arrive, each has arrived (after its start) or passed the hitch limit at some sample,
         or is lost at its last. Each sample is judged once."""
         judged = 0  # samples of the runs judged so far
@@ -312,7 +312,7 @@ class EndGame:
         return ended
 
     def _stopped(self, screen: Screen | None) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
-        """``ended`` of the pursuits (:meth:`.motion.PathPursuit.run`): :meth:`_dubins_ended`, and with a
+        """``ended`` of the pursuits (:meth:`.rollouts.PathPursuit.run`): :meth:`_dubins_ended`, and with a
         ``screen``, a body surely too near the scene (:meth:`.grid.Screen.blocked`)."""
         if screen is None:
             return self._dubins_ended
@@ -369,7 +369,7 @@ class _HandOff:
         self.valid = (index >= self.firsts) & (index < np.array([len(p) - 1 for p, _ in exact])[:, None])
 
     def onto(self, states: np.ndarray, deviation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Rows (run-major, as :meth:`.motion.PathPursuit.run` asks) on their tree paths, and the sample each is
+        """Rows (run-major, as :meth:`.rollouts.PathPursuit.run` asks) on their tree paths, and the sample each is
         on (-1 where none)."""
         per = len(states) // len(self.exact)
         rows = np.flatnonzero(deviation <= HANDOFF_M)  # the deviation is from the reference: the path past the blend

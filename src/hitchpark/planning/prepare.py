@@ -13,7 +13,7 @@ from ..model.checker import prepare_distances
 from ..model.scene import Scene
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
-from ..ocp.obstacles import prepare_lines
+from ..ocp.separating import prepare_lines
 from .discs import prepare_discs
 from .endgame import EndGame
 from .motion import PrimitiveBatch

@@ -10,26 +10,23 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..checks import InputError, check_instance
 from ..control.pure_pursuit import forward_steer_limit
-from ..model.collision import MAX_STEP_M, closest, swept_clearance
+from ..model.collision import MAX_STEP_M, swept_clearance
 from ..model.scene import Scene
-from ..model.state import Pose, State, check_goal, check_state, goal_frame_position, goal_frame_yaw, to_goal_frame
-from ..model.vehicle import VehicleTrailer, check_vehicle
+from ..model.state import Pose, State, goal_frame_position, goal_frame_yaw
+from ..model.vehicle import VehicleTrailer
 from .endgame import EndGame, Landing, TreeLanding
 from .grid import HolonomicHeuristic, Screen
 from .heuristic import CostToGo, trailer_table
 from .motion import PrimitiveBatch
-from .nodes import Node
+from .nodes import Node, distance_to_goal, path_of, stuck_detail
 from .opening import OPENING_FORWARD_M, opening
-from .prepare import prepare as _prepare
 from .prepare import scene_bounds
 from .raster import distance_grid
-from .refine import refine_plan
 from .settings import Plan, PlannerSettings, arrived
 from .tree import NEAR_M, TREE_MAX_M, GoalTree, cell_key
 
-__all__ = ["plan"]
+__all__ = ["START_MARGIN_M", "Search"]
 
 #: Cell of the holonomic heuristic's grid [m].
 HEURISTIC_CELL_M = 0.25
@@ -37,8 +34,6 @@ HEURISTIC_CELL_M = 0.25
 #: Dubins shots are tried from the start and from every this many expanded nodes.
 DUBINS_EVERY = 10
 
-#: How many times a search that exhausts its grid is repeated on a grid twice as fine.
-REFINEMENTS = 2
 
 #: A start within ``start_slack_m`` of ``min_clearance_m`` is planned from keeping its own clearance less this [m]
 #: (the exact swept clearance's bound is low by up to half its sub-step, and 5 mm), at least ``min_clearance_m -
@@ -47,58 +42,6 @@ START_MARGIN_M = MAX_STEP_M / 2 + 0.005
 
 #: Cap on the nodes of one search (memory bound; ``max_expansions`` ends a search first).
 MAX_NODES = 2_000_000
-
-
-def plan(
-    vehicle: VehicleTrailer,
-    start: State,
-    goal: Pose | None = None,
-    scene: Scene | None = None,
-    settings: PlannerSettings | None = None,
-) -> Plan:
-    """A path from ``start`` to within the goal tolerance of ``goal`` that keeps clear of ``scene``.
-
-    Hybrid A* in (x, y, yaw) of the trailer axle and the hitch angle; each expansion integrates
-    forward and reverse primitives of the full model (Eqs. 19-24) with the steer within ``max_steer``
-    (forward: within :func:`~hitchpark.control.pure_pursuit.forward_steer_limit`, so forward motion
-    cannot jackknife), ramping at ``max_steer_rate`` within a direction, and the hitch within
-    ``max_hitch - hitch_margin`` at every sample. Collisions are screened with discs on a distance grid
-    of the scene; the path found is confirmed by the exact
-    :func:`~hitchpark.model.collision.swept_clearance` (a path that fails it is dropped and the search
-    goes on). The search stops within the goal tolerance; the end of the path's last reverse run is
-    then solved again to end exactly at the goal, settled (``refine_m``,
-    :mod:`~hitchpark.planning.refine`), where that keeps clear. Never raises for a hard problem:
-    ``status`` says ``no_path`` (or ``planner_timeout``, the wall-clock safety net). Bad arguments raise
-    :class:`~hitchpark.checks.InputError`.
-    """
-    vehicle = check_vehicle(vehicle)
-    check_state(vehicle, start)
-    goal = check_goal(goal)
-    scene = Scene() if scene is None else check_instance("scene", scene, Scene, "hitchpark.model.Scene(...)")
-    settings = PlannerSettings() if settings is None else settings
-    check_instance("settings", settings, PlannerSettings, "hitchpark.planning.PlannerSettings(...)")
-    if settings.hitch_margin >= vehicle.max_hitch:
-        raise InputError(
-            f"planner.hitch_margin must be < max_hitch ({vehicle.max_hitch:g} rad), got {settings.hitch_margin:g}"
-        )
-    tree = _prepare(vehicle, goal, scene, settings)
-    began = time.perf_counter()
-    expanded = 0
-    for refinement in range(REFINEMENTS + 1):
-        search = Search(vehicle, start, goal, scene, settings, began, tree)
-        search.expanded = expanded
-        result = search.run()
-        expanded = result.expanded
-        if not search.exhausted or refinement == REFINEMENTS:
-            return refine_plan(vehicle, goal, scene, settings, result) if result.found else result
-        # The grid was too coarse to hold a way through: halve every cell and search again.
-        settings = replace(
-            settings,
-            xy_resolution_m=settings.xy_resolution_m / 2,
-            yaw_bins=min(3600, settings.yaw_bins * 2),
-            hitch_bins=min(3600, settings.hitch_bins * 2),
-        )
-    return result  # pragma: no cover (the loop returns)
 
 
 class Search:
@@ -359,22 +302,13 @@ class Search:
         return "exhausted", -1
 
     def _remaining(self, node: Node) -> float:
-        """How far ``node`` is from the goal (:meth:`_stuck`): trailer-axle distance, 3 m per radian of heading."""
-        gx, gy, gyaw = to_goal_frame(self.goal, float(node.state[0]), float(node.state[1]), float(node.state[2]))
-        return math.hypot(gx, gy) + 3.0 * abs(gyaw)
+        """How far ``node`` is from the goal (:func:`~.nodes.distance_to_goal`)."""
+        return distance_to_goal(self.goal, node.state)
 
     def _stuck(self, nodes: list[Node]) -> str:
         """Where a search that found nothing got to: its node nearest the goal, and what is nearest to it."""
         node = self.closest if self.closest is not None else nodes[0]
-        gx, gy, gyaw = to_goal_frame(self.goal, float(node.state[0]), float(node.state[1]), float(node.state[2]))
-        where = (
-            f"closest: trailer axle at ({node.state[0]:.2f}, {node.state[1]:.2f}) m, {math.hypot(gx, gy):.2f} m and "
-            f"{math.degrees(abs(gyaw)):.0f} deg from the goal, hitch {math.degrees(node.state[3]):.0f} deg"
-        )
-        if self.scene.is_empty:
-            return where
-        contact = closest(self.vehicle, self.scene, *(float(v) for v in node.state[:4]))
-        return where if contact is None else f"{where}; there {contact.describe()}"
+        return stuck_detail(self.vehicle, self.scene, self.goal, node)
 
     def estimate(self, state: np.ndarray) -> float:
         """Length [m] of a single reverse run from ``state`` into the goal: by way of the goal tree where a node
@@ -457,27 +391,4 @@ class Search:
         return bound >= self.screen.clearance
 
     def _path(self, nodes: list[Node], last: int) -> dict[str, np.ndarray]:
-        chain = []
-        i = last
-        while i >= 0:
-            chain.append(nodes[i])
-            i = nodes[i].parent
-        chain.reverse()
-        parts = [c for c in chain[1:] if len(c.samples)]
-        states = np.vstack([self.start[None, :]] + [c.samples for c in parts])
-        first_direction = parts[0].direction if parts else -1
-        first_steer = parts[0].steers[0] if parts else 0.0
-        steer = np.concatenate([[first_steer]] + [c.steers for c in parts])
-        direction = np.concatenate([[first_direction]] + [np.full(len(c.samples), c.direction) for c in parts])
-        steps = np.hypot(np.diff(states[:, 0]), np.diff(states[:, 1]))
-        dt = self.settings.primitive_length_m / self.settings.samples
-        return {
-            "x_trailer": states[:, 0],
-            "y_trailer": states[:, 1],
-            "yaw_trailer": states[:, 2],
-            "hitch": states[:, 3],
-            "front_steer": steer,
-            "direction": direction.astype(float),
-            "s": np.concatenate([[0.0], np.cumsum(steps)]),
-            "t": np.arange(len(states)) * dt,
-        }
+        return path_of(nodes, last, self.start, self.settings.primitive_length_m / self.settings.samples)

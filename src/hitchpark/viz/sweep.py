@@ -20,7 +20,7 @@ from . import use_headless_backend
 
 if TYPE_CHECKING:
     from ..app.records import CaseRecord
-    from ..app.sweep import Region
+    from ..app.starts import Region
 
 __all__ = ["plot_sweep_map"]
 
