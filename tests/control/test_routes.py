@@ -217,8 +217,8 @@ def test_a_generated_sqp_laid_out_otherwise_is_not_built(jit_cache, tmp_path, mo
     status, serves instead."""
     import casadi as ca
 
-    from hitchpark.solvers import generated
-    from hitchpark.solvers.generated import _report_sqp_failure
+    from hitchpark.solvers import casadi_patches
+    from hitchpark.solvers.casadi_patches import report_sqp_failure
 
     nlp, equality = _stalling_nlp()
     plugin, options = ROUTES["sqp_c"].factory(equality)
@@ -226,20 +226,43 @@ def test_a_generated_sqp_laid_out_otherwise_is_not_built(jit_cache, tmp_path, mo
     ca.nlpsol("s", plugin, nlp, {**options, "error_on_fail": True}).generate("s.c", {"main": False})
     source = (tmp_path / "s.c").read_text()
     reported = "return pr_inf < 1e-08 && du_inf < 1e-08 ? 0 : 1;"
-    edited = _report_sqp_failure(source)
+    edited = report_sqp_failure(source)
     assert reported not in source and edited.count(reported) == 1
     assert edited.replace(reported, "return 0;") == source
     with pytest.raises(RuntimeError, match="convergence test"):
-        _report_sqp_failure(source.replace("du_inf < ", "du_inf <= "))
+        report_sqp_failure(source.replace("du_inf < ", "du_inf <= "))
     with pytest.raises(RuntimeError, match="does not end"):
-        _report_sqp_failure(source.replace("\n  return 0;\n}\n", "\n  return 0; }\n"))
+        report_sqp_failure(source.replace("\n  return 0;\n}\n", "\n  return 0; }\n"))
     # A CasADi whose generated code has no such test: the route is CasADi's in-process sqpmethod, and it fails
     # where it stalls.
-    monkeypatch.setattr(generated, "_SQP_CONVERGED", re.compile("no such line"))
+    monkeypatch.setattr(casadi_patches, "_SQP_CONVERGED", re.compile("no such line"))
     solver = make_solver("sqp_c", nlp, equality)
     assert not isinstance(solver, GeneratedNLP)
     solver(x0=[0.0, 0.0], p=0.0, lbg=[3.0, 0.0], ubg=[np.inf, 0.0])
     assert solver.stats()["success"] is False
+
+
+def test_the_edits_of_generated_code_give_up_on_a_casadi_they_were_not_tested_on(tmp_path, monkeypatch):
+    """Every edit of CasADi's generated C is guarded by the versions it was written for: on another, the
+    generated sqpmethod is not built (CasADi's in-process one, which reports its status, serves) and the
+    fatrop edits leave the code as generated."""
+    import casadi as ca
+
+    from hitchpark.solvers import casadi_patches
+
+    assert casadi_patches.casadi_tested(ca.__version__)  # the suite runs on a tested CasADi
+    assert casadi_patches.casadi_tested("3.8.9") and not casadi_patches.casadi_tested("3.7.2")
+    assert not casadi_patches.casadi_tested("4.0.0")
+    monkeypatch.setattr(casadi_patches, "TESTED_CASADI", ())
+    monkeypatch.setenv("HITCHPARK_CACHE", str(tmp_path / "cache"))
+    nlp, equality = _stalling_nlp()
+    solver = make_solver("sqp_c", nlp, equality)
+    assert not isinstance(solver, GeneratedNLP)
+    solver(x0=[0.0, 0.0], p=0.0, lbg=[3.0, 0.0], ubg=[np.inf, 0.0])
+    assert solver.stats()["success"] is False
+    source = "static int casadi_f0(const casadi_real** arg) {}\ncasadi_fatrop_solve(\n"
+    assert casadi_patches.link_warm_duals(source) is None
+    assert casadi_patches.link_stagewise(source, {}) is None
 
 
 def test_generated_route_runs_in_process_where_nothing_compiles(tmp_path, monkeypatch):

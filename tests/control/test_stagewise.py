@@ -13,7 +13,7 @@ import pytest
 from hitchpark.control import NMPCSettings, make_nmpc
 from hitchpark.maneuver.scenario import builtin_scenario
 from hitchpark.model import VehicleTrailer
-from hitchpark.solvers.generated import _link_stagewise
+from hitchpark.solvers.casadi_patches import link_stagewise
 from hitchpark.solvers.registry import ROUTES
 from hitchpark.solvers.stagewise import ORACLE, _agree, stagewise_functions
 
@@ -84,9 +84,9 @@ def test_generated_code_without_the_hooks_is_left_as_generated():
     grad = "/* nlp_grad:(x) */\nstatic int casadi_f1(int a) {}\n"
     grad += "  if (casadi_f1(d->arg, d->res, d->iw, d->w, 0)) return 1;\n"
     source = "static int casadi_f0(const casadi_real** arg, ...) {\n" + hooks + grad + "}\n"
-    linked = _link_stagewise(source, functions)
+    linked = link_stagewise(source, functions)
     assert linked is not None
     assert "p.nlp_hess_l.eval = t_hess_l_cb;" in linked and "if (t_grad_cb(d->arg" in linked
     assert linked.index("static int t_hess_l_cb") < linked.index("static int casadi_f0(")
-    assert _link_stagewise(source.replace("p.nlp_jac_g.eval", "p.nlp_jac.eval"), functions) is None
-    assert _link_stagewise(source.replace("static int casadi_f0(", "static int casadi_f9("), functions) is None
+    assert link_stagewise(source.replace("p.nlp_jac_g.eval", "p.nlp_jac.eval"), functions) is None
+    assert link_stagewise(source.replace("static int casadi_f0(", "static int casadi_f9("), functions) is None

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
-import re
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -26,6 +25,14 @@ import casadi as ca
 import numpy as np
 
 from ..native import LibraryCall, build_library, cache_key, load_cached, resolved_compiler
+from .casadi_patches import (
+    WARM_DUALS,
+    casadi_tested,
+    link_stagewise,
+    link_warm_duals,
+    report_sqp_failure,
+    sqp_edit_text,
+)
 from .compiled import compiled_nlpsol
 
 __all__ = ["WARM_SOURCE", "GeneratedNLP", "generated_nlpsol"]
@@ -116,129 +123,6 @@ class GeneratedNLP:
 #: fatrop's C interface with a warm start of the multipliers, linked into generated fatrop solvers.
 WARM_SOURCE = Path(__file__).with_name("fatrop_warm.cpp")
 
-#: The generated fatrop solver's side of :data:`WARM_SOURCE`: the caller's multipliers (lam_x0 and lam_g0,
-#: which the generated code keeps in ``lam``) in fatrop's layout, as ``casadi_fatrop_solve`` reads fatrop's
-#: answer back, the other way.
-_WARM_DUALS = """
-int hitchpark_warm_duals(void* user_data, double* dual) {
-  struct casadi_fatrop_data* d = (struct casadi_fatrop_data*) user_data;
-  const struct casadi_fatrop_prob* p = d->prob;
-  const casadi_real* lam = d->nlp->lam;
-  const casadi_int nx = p->nlp->nx;
-  const struct FatropOcpCDims* str = fatrop_ocp_c_get_dims(d->solver);
-  casadi_int k, i, column;
-  for (k=0;k<str->K;++k) {
-    column = 0;
-    for (i=d->a_ineq_idx[k];i<d->a_ineq_idx[k+1];++i) dual[str->g_ineq_offs[k]+column++] = lam[nx+d->a_ineq[i]];
-    for (i=d->x_ineq_idx[k];i<d->x_ineq_idx[k+1];++i) dual[str->g_ineq_offs[k]+column++] = lam[d->x_ineq[i]];
-    column = 0;
-    for (i=d->a_eq_idx[k];i<d->a_eq_idx[k+1];++i) dual[str->g_offs[k]+column++] = lam[nx+d->a_eq[i]];
-    for (i=d->x_eq_idx[k];i<d->x_eq_idx[k+1];++i) dual[str->g_offs[k]+column++] = lam[d->x_eq[i]];
-  }
-  for (k=0;k<str->K-1;++k) {
-    casadi_scaled_copy(-1.0, lam+nx+p->AB[k].offset_r, p->nx[k+1], dual+str->dyn_eq_offs[k]);
-  }
-  return 0;
-}
-"""
-
-#: Where the generated C takes :data:`_WARM_DUALS` (after the solver's runtime, before its entry point).
-_ENTRY = "static int casadi_f0(const casadi_real** arg"
-
-
-def _link_warm_duals(source: str) -> str | None:
-    """The C of a generated fatrop solver with :data:`_WARM_DUALS`; None where it is not laid out so."""
-    needed = ("casadi_fatrop_solve(", "d_nlp->lam[p_nlp->nx+d->a_ineq[i]] = dual_data", "p->AB[k].offset_r")
-    if source.count(_ENTRY) != 1 or not all(n in source for n in needed):
-        return None
-    return source.replace(_ENTRY, _WARM_DUALS + "\n" + _ENTRY)
-
-
-#: A stage-wise function called by the generated solver: its own argument lists and work arrays (of the
-#: sizes it asks for; one set per thread), whatever the solver's oracle allots to the function it replaces.
-_CALLBACK = """
-int {name}(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
-static int {name}_cb(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {{
-  static _Thread_local const casadi_real* a[{sz_arg}];
-  static _Thread_local casadi_real* r[{sz_res}];
-  static _Thread_local casadi_int iw_[{sz_iw}];
-  static _Thread_local casadi_real w_[{sz_w}];
-  int i;
-  for (i = 0; i < {n_in}; ++i) a[i] = arg[i];
-  for (i = 0; i < {n_out}; ++i) r[i] = res[i];
-  return {name}(a, r, iw_, w_, 0);
-}}
-"""
-
-
-def _link_stagewise(source: str, functions: Mapping[str, ca.Function]) -> str | None:
-    """The C of a generated fatrop solver calling ``functions`` (:mod:`.stagewise`) instead of CasADi's.
-
-    The solver's oracle takes each function as a pointer (``p.nlp_hess_l.eval = casadi_f6;``), and the
-    gradient it reports at the end is one direct call; each is pointed at a callback of the stage-wise
-    function. None when the code is not laid out so (another CasADi): then the solver stays as generated.
-    """
-    edited, callbacks = source, []
-    for key, f in functions.items():
-        name = f.name()
-        callbacks.append(
-            _CALLBACK.format(
-                name=name,
-                sz_arg=max(f.sz_arg(), 1),
-                sz_res=max(f.sz_res(), 1),
-                sz_iw=max(f.sz_iw(), 1),
-                sz_w=max(f.sz_w(), 1),
-                n_in=f.n_in(),
-                n_out=f.n_out(),
-            )
-        )
-        if key == "nlp_grad":  # called once, after the iterations: f, g and the gradient in p
-            found = re.findall(r"/\* nlp_grad:\(.*\*/\nstatic int (casadi_f\d+)\(", edited)
-            if len(found) != 1:
-                return None
-            call = f"if ({found[0]}(d->arg, d->res, d->iw, d->w, 0)) return 1;"
-            if edited.count(call) != 1:
-                return None
-            edited = edited.replace(call, f"if ({name}_cb(d->arg, d->res, d->iw, d->w, 0)) return 1;")
-        else:
-            found = re.findall(rf"p\.{key}\.eval = (casadi_f\d+);", edited)
-            if len(found) != 1:
-                return None
-            edited = edited.replace(f"p.{key}.eval = {found[0]};", f"p.{key}.eval = {name}_cb;")
-    if edited.count(_ENTRY) != 1:
-        return None
-    return edited.replace(_ENTRY, "".join(callbacks) + "\n" + _ENTRY)
-
-
-#: The generated sqpmethod's convergence test (CasADi 3.8): the iterations end on it, on the iteration limit
-#: or on a step too small, and the generated function returns 0 after each of the three, whatever
-#: ``error_on_fail`` asks (CasADi's own sqpmethod reports the other two as failures).
-_SQP_CONVERGED = re.compile(r"if \(iter_count >= 0 && pr_inf < (\S+) && du_inf < (\S+)\) break;")
-
-#: The end of the generated sqpmethod's function: its answer copied out, then success whatever happened.
-_SQP_END = "\n  return 0;\n}\n"
-
-#: What :func:`_report_sqp_failure` puts in its place, given the convergence test's two tolerances.
-_SQP_RETURN = "\n  return pr_inf < {} && du_inf < {} ? 0 : 1;\n}}\n"
-
-
-def _report_sqp_failure(source: str) -> str:
-    """The C of a generated sqpmethod solver that returns 1 unless its iterations met the tolerances.
-
-    The main loop is left only by its three tests at the top of an iteration, each after the primal and dual
-    infeasibilities of the current iterate are computed: so these meet the tolerances at the end exactly
-    when the convergence test ended it. Raises RuntimeError where the code is not laid out so (another
-    CasADi): the library is then not built, and the in-process sqpmethod, which reports its status, serves.
-    """
-    found = list(_SQP_CONVERGED.finditer(source))
-    if len(found) != 1:
-        raise RuntimeError("generated sqpmethod: no single convergence test to report failures by")
-    pr_tol, du_tol = found[0].groups()
-    end = source.find(_SQP_END, found[0].end())
-    if end < 0:
-        raise RuntimeError("generated sqpmethod: the solver's function does not end as expected")
-    return source[:end] + _SQP_RETURN.format(pr_tol, du_tol) + source[end + len(_SQP_END) :]
-
 
 def generated_nlpsol(
     name: str,
@@ -255,13 +139,13 @@ def generated_nlpsol(
     a stage instead of the horizon's, the same numbers. A fatrop solver is linked with :data:`WARM_SOURCE`
     where it compiles, and then starts from given multipliers, each bound's at least ``dual_floor``
     (:class:`GeneratedNLP`). A generated sqpmethod reports a solve that did not converge as a failure, as
-    CasADi's own does (:func:`_report_sqp_failure`). Falls back to the in-process CasADi solver (the same
-    plugin and options) where nothing can be compiled.
+    CasADi's own does (:func:`~.casadi_patches.report_sqp_failure`). Falls back to the in-process CasADi solver
+    (the same plugin and options) where nothing can be compiled.
     """
     compiler = resolved_compiler()
     stagewise = stages is not None and plugin == "fatrop"
     if compiler is not None and plugin in _LINKED:
-        warm = plugin == "fatrop" and WARM_SOURCE.is_file()
+        warm = plugin == "fatrop" and WARM_SOURCE.is_file() and casadi_tested()
 
         def build(compiler: str, home: Path, library: Path) -> bool:
             # error_on_fail: the generated function returns nonzero when the solver did not converge.
@@ -270,13 +154,13 @@ def generated_nlpsol(
 
             def edit(source: str) -> str | None:
                 if plugin == "sqpmethod":
-                    return _report_sqp_failure(source)
+                    return report_sqp_failure(source)
                 if functions:
-                    linked = _link_stagewise(source, functions)
+                    linked = link_stagewise(source, functions)
                     if linked is None:
                         return None
                     source = linked
-                return (_link_warm_duals(source) or source) if warm else source
+                return (link_warm_duals(source) or source) if warm else source
 
             # fatrop with the warm start of its multipliers; if that does not build, fatrop as it comes.
             for cxx in (WARM_SOURCE, None) if warm else (None,):
@@ -288,10 +172,9 @@ def generated_nlpsol(
         sizes = (int(nlp["x"].numel()), int(nlp["p"].numel()), int(nlp["g"].numel()))
         kind = "generated-stagewise" if stagewise else "generated"
         if plugin == "sqpmethod":  # the edit shapes the library (those built before it reported no failure)
-            edit_text = _SQP_CONVERGED.pattern + _SQP_END + _SQP_RETURN
-            kind += "-status-" + hashlib.sha256(edit_text.encode()).hexdigest()[:12]
+            kind += "-status-" + hashlib.sha256(sqp_edit_text().encode()).hexdigest()[:12]
         if warm:  # the source of the warm start shapes the library too
-            kind += "-warm-" + hashlib.sha256((WARM_SOURCE.read_text() + _WARM_DUALS).encode()).hexdigest()[:12]
+            kind += "-warm-" + hashlib.sha256((WARM_SOURCE.read_text() + WARM_DUALS).encode()).hexdigest()[:12]
         key = cache_key(plugin, nlp, options, kind=kind)
         loaded = load_cached(name, key, build, lambda library: GeneratedNLP(library, name, *sizes, dual_floor))
         if loaded is not None:
