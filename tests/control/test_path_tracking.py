@@ -1,4 +1,4 @@
-"""Path tracking (control.path_tracking) and the guard (control.guard): segments, stopping, clearance."""
+"""Path tracking (hitchpark.control.path_tracking): segments, driving to the end and stopping, giving up."""
 
 from __future__ import annotations
 
@@ -7,12 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from hitchpark.control.guard import Guard
 from hitchpark.control.path_tracking import END_TOLERANCE_M, PathTracker, TrackingSettings, direction_segments
 from hitchpark.control.step import ControlStep
 from hitchpark.model import VehicleTrailer
 from hitchpark.model.plant import Measurement, Plant, PlantSettings
-from hitchpark.model.scene import Obstacle, Scene
 from hitchpark.model.state import Pose, State
 
 V = VehicleTrailer()
@@ -80,49 +78,3 @@ def test_the_tracker_gives_up_when_the_car_is_far_off_its_path():
     m = Measurement(0.0, State(0.0, 0.5, 0.0, 0.0), 0.0, 0.0)
     u = tracker.act(m, Pose())
     assert not u.ok and u.stop and u.rear_speed == 0.0 and "deviated" in u.status
-
-
-WALL = Scene((Obstacle("wall", ((-6.0, -5.0), (-5.0, -5.0), (-5.0, 5.0), (-6.0, 5.0))),))
-
-
-def step(speed: float, predicted: np.ndarray | None = None) -> ControlStep:
-    p = np.zeros((0, 0)) if predicted is None else predicted
-    return ControlStep(
-        trailer_speed=speed,
-        virtual_steer=0.0,
-        rear_speed=speed,
-        front_steer=0.0,
-        ok=True,
-        stop=False,
-        predicted_states=p,
-    )
-
-
-def test_guard_stops_a_command_that_is_too_close_and_slows_one_near_the_scene():
-    guard = Guard(V, WALL, 0.2, 0.05, 0.1, 0)
-    # The trailer's rear (1 m behind the axle) is 5 - 1 - x_t from the wall at x = -5.
-    far = Measurement(0.0, State(6.0, 0.0, 0.0, 0.0), 0.0, -1.0)
-    assert guard.check(far, Pose(), step(-1.0)).rear_speed == -1.0
-    near = Measurement(0.0, State(-3.3, 0.0, 0.0, 0.0), 0.0, -1.0)  # 0.7 m from the wall
-    slowed = guard.check(near, Pose(), step(-1.0))
-    assert slowed.ok and -1.0 < slowed.rear_speed < 0.0
-    touching = Measurement(0.0, State(-3.9, 0.0, 0.0, 0.0), 0.0, -0.1)  # 0.1 m from the wall
-    stopped = guard.check(touching, Pose(), step(-0.1))
-    assert not stopped.ok and stopped.stop and stopped.rear_speed == 0.0 and "guard" in stopped.status
-
-
-def test_guard_looks_at_the_prediction():
-    guard = Guard(V, WALL, 0.2, 0.05, 0.1, 0)
-    m = Measurement(0.0, State(0.0, 0.0, 0.0, 0.0), 0.0, -1.0)
-    ahead = np.array([[0.0, 0.0, 0.0, 0.0], [-2.0, 0.0, 0.0, 0.0], [-3.95, 0.0, 0.0, 0.0]])  # goal frame = world
-    assert not guard.check(m, Pose(), step(-1.0, ahead)).ok
-
-
-def test_guard_speed_grows_with_room_from_zero():
-    guard = Guard(V, WALL, 0.2, 0.05, 0.1, 1)
-    rooms = np.linspace(0.0, 3.0, 31)
-    speeds = [guard.max_speed(r) for r in rooms]
-    assert speeds[0] == 0.0 and np.all(np.diff(speeds) > 0)
-    for room, v in zip(rooms, speeds, strict=True):  # it can stop within the room: lag, then braking at a/2
-        a = 0.5 * V.max_accel
-        assert 2.0 * (2 * 0.1 * v + v * v / (2 * a)) == pytest.approx(room, abs=1e-9)

@@ -1,0 +1,36 @@
+"""The documentation's lists of fields are the code's: reference/formats.md names every field the code writes."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import fields
+from pathlib import Path
+
+from hitchpark.app.records import CaseRecord
+from hitchpark.maneuver.result import _DERIVED_KEYS, _SAVED_KEYS, MANEUVER_COLUMNS
+
+FORMATS = Path(__file__).resolve().parent.parent / "docs" / "reference" / "formats.md"
+
+
+def _named(text: str) -> set[str]:
+    return set(re.findall(r"`([a-z_]+)`", text))
+
+
+def _section(title: str) -> str:
+    text = FORMATS.read_text(encoding="utf-8")
+    start = text.index(f"## {title}")
+    end = text.find("\n## ", start + 1)
+    return text[start : end if end > 0 else len(text)]
+
+
+def test_the_maneuver_file_lists_every_key_and_column_it_has():
+    named = _named(_section("`maneuver.json`"))
+    assert set(_SAVED_KEYS) <= named and set(_DERIVED_KEYS) <= named
+    assert set(MANEUVER_COLUMNS) <= named
+
+
+def test_the_sweep_records_list_every_field_and_no_other():
+    named = _named(_section("A sweep's `--out`"))
+    record_fields = {f.name for f in fields(CaseRecord)}
+    assert record_fields <= named
+    assert named - record_fields <= {"x", "y", "yaw_deg", "hitch_deg", "out"}  # the start's keys, the heading
