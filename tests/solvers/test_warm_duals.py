@@ -38,26 +38,26 @@ def test_shifted_multipliers_move_each_stage_on_by_a_step_and_hold_the_last():
     X_k (the obstacle OCP's lines) alike; a fraction of a step moves them that fraction of the way."""
     tr = _obstacle_transcription()
     N, nx, nu = tr.problem.horizon, tr.problem.n_x, tr.problem.n_u
-    assert tr._row_idx is not None and tr._row_idx.shape[0] == N  # the lines: rows on X_1 ... X_N
+    assert tr.layout.step_rows is not None and tr.layout.step_rows.shape[0] == N  # the lines: rows on X_1 ... X_N
     lam_x = np.zeros(tr.nlp["x"].numel())
-    lam_x[tr._x_idx] = np.arange(N + 1)[:, None] + 0.1 * np.arange(nx)
-    lam_x[tr._u_idx] = np.arange(N)[:, None] + 0.01 * np.arange(nu)
+    lam_x[tr.layout.states] = np.arange(N + 1)[:, None] + 0.1 * np.arange(nx)
+    lam_x[tr.layout.inputs] = np.arange(N)[:, None] + 0.01 * np.arange(nu)
     lam_g = np.full(len(tr.lbg), -7.0)  # anything else (none here) keeps its value
-    lam_g[tr._costate_idx] = np.arange(N + 1)[:, None]
-    lam_g[tr._row_idx] = np.arange(1, N + 1)[:, None]
+    lam_g[tr.layout.dynamics] = np.arange(N + 1)[:, None]
+    lam_g[tr.layout.step_rows] = np.arange(1, N + 1)[:, None]
     shifted_x, shifted_g = tr.shift_duals(lam_x, lam_g, 1.0)
-    np.testing.assert_array_equal(shifted_x[tr._x_idx[1:-1]], lam_x[tr._x_idx[2:]])
-    np.testing.assert_array_equal(shifted_x[tr._x_idx[-1]], lam_x[tr._x_idx[-1]])
-    np.testing.assert_array_equal(shifted_x[tr._x_idx[0]], 0.0)  # X_0 is p: no bound there
-    np.testing.assert_array_equal(shifted_x[tr._u_idx[:-1]], lam_x[tr._u_idx[1:]])
-    np.testing.assert_array_equal(shifted_x[tr._u_idx[-1]], lam_x[tr._u_idx[-1]])
-    np.testing.assert_array_equal(shifted_g[tr._costate_idx][:, 0], [*range(1, N + 1), N])
-    np.testing.assert_array_equal(shifted_g[tr._row_idx][:, 0], [*range(2, N + 1), N])
+    np.testing.assert_array_equal(shifted_x[tr.layout.states[1:-1]], lam_x[tr.layout.states[2:]])
+    np.testing.assert_array_equal(shifted_x[tr.layout.states[-1]], lam_x[tr.layout.states[-1]])
+    np.testing.assert_array_equal(shifted_x[tr.layout.states[0]], 0.0)  # X_0 is p: no bound there
+    np.testing.assert_array_equal(shifted_x[tr.layout.inputs[:-1]], lam_x[tr.layout.inputs[1:]])
+    np.testing.assert_array_equal(shifted_x[tr.layout.inputs[-1]], lam_x[tr.layout.inputs[-1]])
+    np.testing.assert_array_equal(shifted_g[tr.layout.dynamics][:, 0], [*range(1, N + 1), N])
+    np.testing.assert_array_equal(shifted_g[tr.layout.step_rows][:, 0], [*range(2, N + 1), N])
     third_x, third_g = tr.shift_duals(lam_x, lam_g, 1.0 / 3.0)
-    np.testing.assert_allclose(third_g[tr._costate_idx][:-1, 0], np.arange(N) + 1.0 / 3.0)
-    np.testing.assert_allclose(third_x[tr._u_idx][:-1, 0], np.arange(N - 1) + 1.0 / 3.0)
+    np.testing.assert_allclose(third_g[tr.layout.dynamics][:-1, 0], np.arange(N) + 1.0 / 3.0)
+    np.testing.assert_allclose(third_x[tr.layout.inputs][:-1, 0], np.arange(N - 1) + 1.0 / 3.0)
     # The inputs are left as they were; multipliers of another layout are refused.
-    assert lam_g[tr._costate_idx][1, 0] == 1.0
+    assert lam_g[tr.layout.dynamics][1, 0] == 1.0
     assert tr.shift_duals(lam_x[:-1], lam_g, 1.0) is None
 
 
@@ -78,7 +78,7 @@ def test_fatrop_started_from_its_own_optimum_and_multipliers_ends_there_in_fewer
         assert solver.stats()["success"]
         warm.append(solver.stats()["iter_count"])
         assert answer["f"] == pytest.approx(optimum["f"], rel=1e-8, abs=1e-10)
-        np.testing.assert_allclose(answer["x"][tr._u_idx[0]], optimum["x"][tr._u_idx[0]], atol=1e-6)
+        np.testing.assert_allclose(answer["x"][tr.layout.inputs[0]], optimum["x"][tr.layout.inputs[0]], atol=1e-6)
     assert len(plain) >= 5
     assert all(w <= p for w, p in zip(warm, plain, strict=True)), (warm, plain)
     assert sum(warm) < sum(plain)
@@ -99,7 +99,7 @@ def test_the_shifted_multipliers_reach_the_optimum_of_fatrops_own_start_and_non_
         warm = solver(**problem.inputs(duals=True))
         assert own_stats["success"] and solver.stats()["success"]
         assert warm["f"] == pytest.approx(own["f"], rel=1e-6, abs=1e-8)
-        np.testing.assert_allclose(warm["x"][tr._u_idx[0]], own["x"][tr._u_idx[0]], atol=1e-5)
+        np.testing.assert_allclose(warm["x"][tr.layout.inputs[0]], own["x"][tr.layout.inputs[0]], atol=1e-5)
         broken = problem.lam_g0.copy()
         broken[len(broken) // 2] = np.nan
         ignored = solver(**problem.inputs(), lam_x0=problem.lam_x0, lam_g0=broken)

@@ -13,6 +13,7 @@ constraints, which is sparser and better conditioned over long horizons.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 import casadi as ca
@@ -20,6 +21,7 @@ import numpy as np
 
 __all__ = [
     "OCP",
+    "Layout",
     "MultipleShooting",
     "OCPSettings",
     "PathConstraint",
@@ -79,6 +81,19 @@ class OCP(Protocol):
 
 #: An extra constraint on stage k: ``(x_k, u_k, k) -> (expr, lower, upper)``, CasADi expressions.
 PathConstraint = Callable[[Any, Any, int], tuple[Any, Any, Any]]
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where multiple shooting keeps each stage's unknowns and rows: ``states`` (N + 1, n_x) and ``inputs``
+    (N, n_u) index the NLP's ``x``; ``dynamics`` (N, n_x) the rows of ``g`` tying X_{k+1} to X_k and U_k (their
+    multipliers are the costates); ``step_rows`` (N, m) the OCP's rows on X_1..X_N, where every step has the
+    same number (else None)."""
+
+    states: np.ndarray
+    inputs: np.ndarray
+    dynamics: np.ndarray
+    step_rows: np.ndarray | None
 
 
 class Transcription:
@@ -224,6 +239,7 @@ class MultipleShooting(Transcription):
         self._n = stride * N + nx
         self._shift_x = _shift_map(self._x_idx, self._u_idx)
         self._shift_g = _shift_map(self._costate_idx, self._row_idx)
+        self.layout = Layout(self._x_idx, self._u_idx, self._costate_idx, self._row_idx)
         self._bounds: dict[
             tuple[tuple[float, ...], tuple[float, ...]], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
         ] = {}
