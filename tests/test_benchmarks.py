@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 REPLAY = Path(__file__).resolve().parents[1] / "benchmarks" / "replay_problems.py"
 
@@ -25,6 +26,7 @@ def test_replay_does_not_overwrite_a_file(tmp_path: Path) -> None:
     assert existing.read_bytes() == b"a user's file"
 
 
+@pytest.mark.slow
 def test_replay_refuses_a_file_that_is_not_recorded_problems(tmp_path: Path) -> None:
     text = tmp_path / "notes.txt"
     text.write_text("not arrays\n")
@@ -48,6 +50,7 @@ def test_replay_refuses_a_bad_horizon_or_count(tmp_path: Path) -> None:
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_replay_round_trip_of_the_paper_ocp(tmp_path: Path) -> None:
     """What ``record`` saves is what the controller posed, and ``solve`` answers it from the file."""
     from hitchpark.app.bench import BENCH_OCPS, own_problems, record_problems

@@ -194,6 +194,7 @@ def test_park_scenario_with_a_goal(tmp_path, capsys):
 # --- plot --------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_plot_a_saved_maneuver(parked, tmp_path, capsys):
     out = tmp_path / "figures"
     assert run(["plot", str(parked.folder / "maneuver.json"), "--out", str(out), "--no-animation"]) == 0

@@ -148,6 +148,7 @@ def test_park_without_plots_removes_the_figures_of_an_earlier_run(reparked):
     assert tree["maneuver.json"].startswith(b"{")  # the new one
 
 
+@pytest.mark.slow
 def test_plot_replaces_only_figures(reparked, tmp_path, capsys):
     """Plotting beside a maneuver.json: the figures are new, the stale GIF is gone, the data and notes stay."""
     folder = tmp_path / "m"

@@ -63,6 +63,7 @@ def test_suite_table_rows():
     assert summary_entry(open_space, "x")["min_clearance_m"] is None
 
 
+@pytest.mark.slow
 def test_cli_reproduce_suite(tmp_path, capsys, monkeypatch):
     """The command on one scene of the suite (a planned maneuver on the realistic car), JSON only."""
     monkeypatch.setitem(report.SUITES, "obstacles", ("curb_parallel",))

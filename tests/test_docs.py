@@ -34,3 +34,15 @@ def test_the_sweep_records_list_every_field_and_no_other():
     record_fields = {f.name for f in fields(CaseRecord)}
     assert record_fields <= named
     assert named - record_fields <= {"x", "y", "yaw_deg", "hitch_deg", "out"}  # the start's keys, the heading
+
+
+def test_the_scene_tutorials_file_is_the_one_it_shows_and_loads():
+    from hitchpark.maneuver.scenario import load_scenario
+
+    docs = FORMATS.parent.parent
+    shown = re.search(r"```toml\n(.*?)```", (docs / "tutorials" / "scene.md").read_text(encoding="utf-8"), re.S)
+    example = docs / "examples" / "my_driveway.toml"
+    assert shown is not None and shown.group(1) == example.read_text(encoding="utf-8")
+    scenario = load_scenario(example)
+    assert scenario.name == "my_driveway" and len(scenario.scene.obstacles) == 2
+    assert scenario.start_region is not None

@@ -137,6 +137,7 @@ def whole_records(data: bytes) -> list[dict]:
     return [json.loads(line) for line in data.splitlines()]
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_a_pool_sweep_its_workers_and_keeps_whole_records_for_a_resume(tmp_path):
     out = tmp_path / "sweep.jsonl"
     argv = sweep_argv(tmp_path, out, n=12, workers=2)
@@ -161,6 +162,7 @@ def test_ctrl_c_stops_a_pool_sweep_its_workers_and_keeps_whole_records_for_a_res
     assert sorted(r["case"] for r in whole_records(after)) == list(range(12))
 
 
+@pytest.mark.slow
 def test_ctrl_c_twice_while_reproduce_draws_leaves_the_output_folder_as_it_was(tmp_path):
     out = tmp_path / "out"
     (out / "parallel").mkdir(parents=True)
@@ -184,6 +186,7 @@ def test_ctrl_c_twice_while_reproduce_draws_leaves_the_output_folder_as_it_was(t
     assert all((out / name).read_bytes() == data for name, data in earlier.items())
 
 
+@pytest.mark.slow
 def test_ctrl_c_during_a_solve_stops_a_serial_sweep(tmp_path):
     # The default full NMPC on one process: most of the time goes into CasADi's solver, which catches
     # Ctrl-C itself; the interrupt must still reach the command.
@@ -197,6 +200,7 @@ def test_ctrl_c_during_a_solve_stops_a_serial_sweep(tmp_path):
     assert 1 <= len(whole_records(out.read_bytes())) < 30
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_a_sweep_on_a_dask_local_cluster_and_its_workers(tmp_path):
     pytest.importorskip("distributed")
     out = tmp_path / "dask.jsonl"

@@ -29,6 +29,7 @@ def paper_bench():
     return run_bench(["paper"], ["ipopt", "sqp"], n_starts=1, horizons=(10, 20))
 
 
+@pytest.mark.slow
 def test_bench_times_every_route_on_the_same_recorded_problems(paper_bench):
     bench = paper_bench["paper"]
     assert bench.default == BENCH_OCPS["paper"].nmpc.solver
@@ -61,6 +62,7 @@ def test_bench_drives_the_paper_scenarios_with_each_route(paper_bench):
         assert abs(got["orientation_deg"] - ref["orientation_deg"]) < 0.01
 
 
+@pytest.mark.slow
 def test_the_obstacle_ocp_is_benched_on_the_scenes_and_a_slow_route_is_cut_short(monkeypatch):
     starts = BENCH_OCPS["obstacles"].starts(7)
     assert [s.name for s in starts[:5]] == list(OBSTACLE_SUITE) and len(starts) == 7
@@ -75,6 +77,7 @@ def test_the_obstacle_ocp_is_benched_on_the_scenes_and_a_slow_route_is_cut_short
     assert f"first {fatrop.calls} of {bench.problems}" in bench_table({"obstacles": bench})
 
 
+@pytest.mark.slow
 def test_the_tracking_ocp_is_benched_on_the_problems_of_the_nmpc_tracking_the_plan():
     bench = run_bench(["tracking"], ["ipopt", "fatrop_c"], n_starts=1, horizons=(10,))["tracking"]
     assert bench.starts == 1 and bench.problems > 100  # the NMPC drives the whole reverse run
@@ -173,6 +176,7 @@ def test_a_timed_job_stops_once_its_budget_is_spent_while_the_others_go_on():
     assert len(timed["fast"][0]) == len(problems)
 
 
+@pytest.mark.slow
 def test_cli_bench_writes_the_schema(tmp_path, capsys):
     out = tmp_path / "bench.json"
     argv = ["bench", "--json", str(out), "--ocp", "paper", "--routes", "ipopt", "--starts", "1", "--no-scaling"]

@@ -158,6 +158,7 @@ def test_starts_are_a_pure_function_of_seed_n_region():
     assert len({s.x for s in starts}) == 50
 
 
+@pytest.mark.slow
 def test_starts_and_records_do_not_depend_on_workers(serial_run, pool_run):
     (_, serial), (_, pool) = serial_run, pool_run
     assert [r.start for r in serial.records] == SMALL.starts()
@@ -334,6 +335,7 @@ def test_never_touches_a_file_that_is_not_a_sweep(tmp_path, content):
 # --- backends ----------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_pool_and_dask_local_give_the_same_records(pool_run, tmp_path):
     _, pool = pool_run
     dask = run_sweep(SMALL, tmp_path / "dask.jsonl", make_executor("dask", 2, "local"))
@@ -412,6 +414,7 @@ def test_settings_file_tables():
 # --- the command -------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_cli_sweep_writes_records_summary_and_map(tmp_path, capsys):
     """The default sweep end to end: the full-model NMPC on the realistic car."""
     out, summary, figure = tmp_path / "s.jsonl", tmp_path / "s.json", tmp_path / "maps" / "s.png"
@@ -494,6 +497,7 @@ def test_cli_refuses_a_foreign_out_file(tmp_path, capsys):
     assert out.read_text(encoding="utf-8") == "my notes\n"
 
 
+@pytest.mark.slow
 def test_killed_sweep_resumes_without_changing_finished_lines(tmp_path):
     out = tmp_path / "killed.jsonl"
     (tmp_path / "paper.toml").write_text(PAPER_TOML, encoding="utf-8")

@@ -151,6 +151,7 @@ def test_a_scenario_without_start_region_is_refused():
         config_from_scenario(builtin_scenario("parallel"), n=2, seed=1)
 
 
+@pytest.mark.slow
 def test_cli_sweep_over_a_builtin_scene(tmp_path, capsys):
     """The command end to end on a shipped scene, by name: its planner, NMPC and realistic car."""
     out, summary, figure = tmp_path / "s.jsonl", tmp_path / "s.json", tmp_path / "s.png"

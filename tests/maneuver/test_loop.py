@@ -31,6 +31,7 @@ def results():
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["parallel", "random", "faults"])
 def test_parks_on_a_realistic_car(results, name):
     r = results[name]

@@ -31,6 +31,7 @@ def planned():
     return park(V, State(10.0, 3.0, 0.3, 0.0))
 
 
+@pytest.mark.slow
 def test_a_planned_maneuver_parks_and_records_its_plans(planned):
     r = planned
     assert r.success, r.detail
@@ -135,6 +136,7 @@ def test_process_settings_read_from_a_table():
     assert Pose() == Pose(0.0, 0.0, 0.0)
 
 
+@pytest.mark.slow
 def test_the_campsite_scene_parks_clear_of_the_trees():
     from hitchpark.maneuver.scenario import builtin_scenario
 
@@ -145,6 +147,7 @@ def test_the_campsite_scene_parks_clear_of_the_trees():
     assert r.plans and r.plans[-1].status == "found"
 
 
+@pytest.mark.slow
 def test_a_guard_stop_before_the_nmpc_moves_plans_again_where_a_solver_failure_ends():
     """The guard stopping the NMPC at its first step (its prediction too near the scene) is a reason to plan from
     where the car stands, as any guard stop; the NMPC failing to solve there ends the maneuver."""

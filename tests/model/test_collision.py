@@ -201,6 +201,7 @@ def test_swept_clearance_invariant_under_moving_everything(rows, angle, dx, dy):
     assert after == pytest.approx(before, abs=1e-6)
 
 
+@pytest.mark.slow
 @settings(max_examples=30)  # about 0.2 s an example: 10 000 exact clearances
 @given(motions, st.sampled_from([0.02, 0.1, 0.5]))
 def test_swept_clearance_is_a_lower_bound_within_half_a_step(rows, max_step):
@@ -216,6 +217,7 @@ def test_swept_clearance_is_a_lower_bound_within_half_a_step(rows, max_step):
     assert bound >= dense - max_step / 2 - 0.01  # the dense sampling itself may miss up to 5 mm
 
 
+@pytest.mark.slow
 @settings(max_examples=60)
 @given(motions, st.sampled_from([0.02, 0.1, 0.5]))
 def test_pruned_sweep_equals_checking_every_pair(rows, max_step):

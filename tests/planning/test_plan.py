@@ -218,6 +218,7 @@ def test_a_start_beside_the_goal_pulls_forward_then_reverses_once():
     assert result.path["direction"][0] == 1.0 and result.path["direction"][-1] == -1.0
 
 
+@pytest.mark.slow
 def test_without_end_games_the_search_alone_finds_a_path():
     # A switch at 12 m of path: the search alone, greedy, takes three times as long at 22 m.
     settings = replace(SETTINGS, shot_length_m=0.0, weight_switch=12.0)

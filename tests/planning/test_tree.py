@@ -111,6 +111,7 @@ def test_a_tree_path_arrives_with_the_steer_of_its_last_sample(driveway):
     np.testing.assert_array_equal(path[:, 4], [0.3, 0.3, 0.3, 0.3])
 
 
+@pytest.mark.slow
 def test_the_tree_is_cached_on_disk_and_read_back_the_same(driveway, tmp_path, monkeypatch):
     sc, grown = driveway
     monkeypatch.setattr(cache, "cache_dir", lambda: tmp_path)
@@ -171,6 +172,7 @@ def test_the_same_plan_on_a_loaded_machine():
         np.testing.assert_array_equal(loaded.path[column], values, err_msg=column)
 
 
+@pytest.mark.slow
 def test_a_start_within_the_slack_keeps_its_own_clearance():
     """A start nearer the scene than min_clearance_m, within start_slack_m: the path keeps what it keeps."""
     sc = builtin_scenario("driveway")

@@ -21,6 +21,7 @@ def _plans(controller, starts):
     return out
 
 
+@pytest.mark.slow
 def test_compiled_matches_uncompiled_and_is_cached(jit_cache, monkeypatch):
     cache, work = jit_cache
     vehicle = VehicleTrailer()
@@ -54,6 +55,7 @@ def test_compiled_matches_uncompiled_and_is_cached(jit_cache, monkeypatch):
     assert _plans(again, starts[:1])[0].front_steer == pytest.approx(_plans(plain, starts[:1])[0].front_steer, abs=1e-7)
 
 
+@pytest.mark.slow
 def test_a_broken_cache_entry_is_rebuilt(jit_cache):
     cache, _ = jit_cache
     vehicle = VehicleTrailer()
@@ -92,6 +94,7 @@ def _build_and_plan(_: int) -> bool:
     )
 
 
+@pytest.mark.slow
 def test_a_pool_compiles_once(jit_cache):
     """Workers of a pool starting together: one compiles, the others wait and load (no half-built library)."""
     import multiprocessing

@@ -54,6 +54,7 @@ def _assert_kkt_point(kkt, problem, answer, tol=1e-6):
         assert np.max(below, initial=0.0) <= 1e-7 and np.max(above, initial=0.0) <= 1e-7
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ocp", ["paper", "full", "obstacles"])
 def test_riccati_reaches_ipopts_optimum_from_cold_and_warm_starts(jit_cache, request, ocp):
     controller, problems = request.getfixturevalue(f"{'obstacle' if ocp == 'obstacles' else ocp}_problems")
@@ -79,6 +80,7 @@ def test_riccati_reaches_ipopts_optimum_from_cold_and_warm_starts(jit_cache, req
         previous = answer
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ocp", ["paper", "full", "obstacles"])
 def test_riccati_corrector_takes_fewer_iterations_to_the_same_optimum(jit_cache, request, ocp):
     """Mehrotra's corrector (the default) against the plain Newton step, warm-started along the recorded loop."""
@@ -106,6 +108,7 @@ def test_riccati_corrector_takes_fewer_iterations_to_the_same_optimum(jit_cache,
     assert sum(iterations[True]) < sum(iterations[False]), iterations
 
 
+@pytest.mark.slow
 def test_riccati_frees_a_component_of_x0_as_ipopt_does(jit_cache, obstacle_problems):
     """The free-steer problem among obstacles (X_0's steer freed from the measured one, within the car's
     steer limit; its row's bounds infinite): riccati_c takes it, from a cold start as the controller gives
@@ -134,6 +137,7 @@ def test_riccati_frees_a_component_of_x0_as_ipopt_does(jit_cache, obstacle_probl
     assert moved  # the wheels' angle chosen, not the measured one kept
 
 
+@pytest.mark.slow
 def test_riccati_from_its_own_answer_is_done_at_once(jit_cache, obstacle_problems, monkeypatch):
     controller, problems = obstacle_problems
     solver = _riccati(controller, floor=1e-12)
@@ -153,6 +157,7 @@ def test_riccati_from_its_own_answer_is_done_at_once(jit_cache, obstacle_problem
     assert isinstance(_riccati(controller), GeneratedNLP)
 
 
+@pytest.mark.slow
 def test_riccati_fails_on_what_it_cannot_take(jit_cache, obstacle_problems):
     controller, problems = obstacle_problems
     solver = _riccati(controller)
@@ -234,6 +239,7 @@ def test_riccati_steps_as_ipopt_at_any_horizon(jit_cache, horizon):
         assert mine.trailer_speed == pytest.approx(reference.trailer_speed, abs=1e-5)
 
 
+@pytest.mark.slow
 def test_riccati_from_a_cold_start_at_a_long_horizon(jit_cache):
     """A closed loop's first problem, with no multipliers to start from, at N = 80 (the full OCP): the barrier
     parameter comes down from IPOPT's start rather than beginning at its last value (which stalled here)."""

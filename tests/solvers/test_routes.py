@@ -33,6 +33,7 @@ def _solve_all(solver, problems):
 
 # BFGS (no second derivatives) takes seconds per obstacle problem, with their hundreds of inequalities, and
 # runs out of iterations on some: ``hitchpark bench`` measures it there; the suite leaves it out.
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("route", "ocp"),
     [(r, o) for o in ("paper", "full", "obstacles") for r in sorted(ROUTES) if (r, o) != ("sqp_bfgs", "obstacles")],
@@ -90,6 +91,7 @@ def test_a_relaxed_route_that_is_the_fallback_is_the_fallback_solver_itself():
     assert controller._relaxed_solver() is controller._program.fallback is not None
 
 
+@pytest.mark.slow
 def test_riccati_takes_the_free_steer_problem_itself(jit_cache):
     """``riccati_c`` frees X_0[steer] itself (hitchpark's own solver takes a free component of X_0): no
     general route is built, and the steer is IPOPT's."""
@@ -104,6 +106,7 @@ def test_riccati_takes_the_free_steer_problem_itself(jit_cache):
     assert controller._program.relaxed is None and controller._program.general is None
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["driveway", "bay"])
 def test_among_obstacles_the_relaxed_route_finds_ipopts_free_steer(name):
     """A scene's stage start: the free-steer problem among the scene's lines (and the plan of open space its
@@ -122,6 +125,7 @@ def test_among_obstacles_the_relaxed_route_finds_ipopts_free_steer(name):
     assert steers["sqp_c"] == pytest.approx(steers[None], abs=1e-6)
 
 
+@pytest.mark.slow
 def test_generated_c_is_the_same_solver_cached_and_leaves_nothing_behind(jit_cache, paper_problems, monkeypatch):
     cache, work = jit_cache
     controller, problems = paper_problems
@@ -153,6 +157,7 @@ def test_generated_c_is_the_same_solver_cached_and_leaves_nothing_behind(jit_cac
     assert _solve_all(again, problems[:1])[0][2] == pytest.approx(_solve_all(in_process, problems[:1])[0][2])
 
 
+@pytest.mark.slow
 def test_generated_c_reports_a_failure_and_the_controller_stops(jit_cache):
     nmpc = TrailerNMPC(
         VehicleTrailer(),
@@ -165,6 +170,7 @@ def test_generated_c_reports_a_failure_and_the_controller_stops(jit_cache):
     assert u.rear_speed == 0.0 and math.isfinite(u.front_steer)
 
 
+@pytest.mark.slow
 def test_generated_c_falls_back_to_the_fallback_solver(jit_cache):
     nmpc = TrailerNMPC(
         VehicleTrailer(),
@@ -274,6 +280,7 @@ def test_generated_route_runs_in_process_where_nothing_compiles(tmp_path, monkey
     assert not (tmp_path / "cache").exists()
 
 
+@pytest.mark.slow
 def test_unknown_input_to_a_generated_solver_is_refused(jit_cache, paper_problems):
     controller, _ = paper_problems
     tr = controller.transcription
@@ -303,6 +310,7 @@ def test_a_generated_function_gives_the_same_answers(jit_cache, monkeypatch):
     assert isinstance(generated_function(batch), CompiledFunction)  # loaded from the cache the second time
 
 
+@pytest.mark.slow
 def test_compiled_code_is_shared_safely_by_threads_and_pickles(jit_cache, paper_problems):
     """ctypes lets threads run during a call: each call's buffers must not be overwritten by another's."""
     import pickle
@@ -354,6 +362,7 @@ def test_a_matrix_argument_must_have_its_shape(jit_cache):
         f(a.ravel())  # a flat array would be read in some order: refused, as CasADi does
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("route", "ocp"), [("fatrop_c", "full"), ("sqp_c", "paper"), ("fatrop_c", "obstacles")])
 def test_generated_routes_reach_the_reference_optimum(
     jit_cache, route, ocp, paper_problems, full_problems, obstacle_problems
@@ -383,6 +392,7 @@ def test_a_plant_with_a_compiled_step_pickles_and_steps_the_same(jit_cache):
     np.testing.assert_array_equal(plant.state.as_array(), copy.state.as_array())
 
 
+@pytest.mark.slow
 def test_compiling_the_planners_rollouts_changes_nothing(jit_cache):
     """On a cold cache the planner's batch functions compile (seconds) before its safety net's clock starts:
     the first plan is the plan a warm cache gives."""
@@ -401,6 +411,7 @@ def test_compiling_the_planners_rollouts_changes_nothing(jit_cache):
         np.testing.assert_array_equal(cold.path[column], values, err_msg=column)
 
 
+@pytest.mark.slow
 def test_nothing_compiles_once_the_planners_clock_runs_among_obstacles(jit_cache, monkeypatch):
     """The end-game's pursuits compile too, one library per size of reference: before the safety net's clock
     starts, with the rollouts. The search's budget is a count, so a cold cache finds the warm cache's path."""

@@ -61,6 +61,7 @@ def test_shifted_multipliers_move_each_stage_on_by_a_step_and_hold_the_last():
     assert tr.shift_duals(lam_x[:-1], lam_g, 1.0) is None
 
 
+@pytest.mark.slow
 def test_fatrop_started_from_its_own_optimum_and_multipliers_ends_there_in_fewer_iterations(jit_cache):
     controller, problems, _ = _recorded("full", 2)
     tr = controller.transcription
@@ -84,6 +85,7 @@ def test_fatrop_started_from_its_own_optimum_and_multipliers_ends_there_in_fewer
     assert sum(warm) < sum(plain)
 
 
+@pytest.mark.slow
 def test_the_shifted_multipliers_reach_the_optimum_of_fatrops_own_start_and_non_finite_ones_are_ignored(jit_cache):
     """On the problems a closed loop posed (each with the last plan's multipliers, shifted): the same optimum
     as from fatrop's own start (whose least-squares equality multipliers the caller's replace). Multipliers
@@ -107,6 +109,7 @@ def test_the_shifted_multipliers_reach_the_optimum_of_fatrops_own_start_and_non_
         np.testing.assert_array_equal(ignored["x"], own["x"])
 
 
+@pytest.mark.slow
 def test_the_controller_passes_on_the_shifted_multipliers_and_parks_as_without(jit_cache):
     """Every problem after the first of a stage starts from the multipliers of the last plan, of the
     transcription's sizes; the maneuver ends where the one without them does."""

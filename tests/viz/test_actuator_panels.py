@@ -195,6 +195,7 @@ def test_each_new_curve_needs_its_own_column(actuated: ManeuverResult, figure_of
     assert lines(panels["front_steer"], "commanded") and lines(panels["rear_speed"], "commanded")
 
 
+@pytest.mark.slow
 def test_plot_maneuver_writes_the_figures_from_a_saved_file(actuated: ManeuverResult, tmp_path) -> None:
     saved = write_json(tmp_path / "maneuver.json", actuated.to_dict())
     loaded = ManeuverResult.from_dict(read_json(saved))

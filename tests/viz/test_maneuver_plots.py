@@ -156,6 +156,7 @@ def test_wheels_and_parking_space() -> None:
 # --------------------------------------------------------------------------- figures
 
 
+@pytest.mark.slow
 def test_plot_maneuver_writes_three_pngs_from_json(maneuver: ManeuverResult, tmp_path) -> None:
     saved = write_json(tmp_path / "maneuver.json", maneuver.to_dict())
     loaded = ManeuverResult.from_dict(read_json(saved))
@@ -168,6 +169,7 @@ def test_plot_maneuver_writes_three_pngs_from_json(maneuver: ManeuverResult, tmp
             assert im.width > 800 and im.height > 400
 
 
+@pytest.mark.slow
 def test_plot_maneuver_on_a_failed_single_stage_maneuver(failed_maneuver: ManeuverResult, tmp_path) -> None:
     assert not failed_maneuver.success and len(failed_maneuver.stages) == 1
     files = plot_maneuver(failed_maneuver, tmp_path)

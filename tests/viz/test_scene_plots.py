@@ -37,6 +37,7 @@ def among() -> ManeuverResult:
     return park(VehicleTrailer(), State(6, 3, 0, 0), settings=settings, name="among", plant=IDEAL, scene=SCENE)
 
 
+@pytest.mark.slow
 def test_plots_and_animation_of_a_result_with_a_scene(among: ManeuverResult, tmp_path) -> None:
     assert among.reason == "collision" and among.min_clearance_m == 0.0  # the pole is marked
     saved = write_json(tmp_path / "maneuver.json", among.to_dict())
@@ -62,6 +63,7 @@ def test_a_large_area_does_not_zoom_the_figure_out(among: ManeuverResult) -> Non
         plt.close(fig)
 
 
+@pytest.mark.slow
 def test_a_clear_scene_renders_with_its_clearance(tmp_path) -> None:
     settings = ManeuverSettings(nmpc=NMPCSettings(kind="paper", solver="sqp"))
     clear = Scene((Obstacle("kerb stone", box(-6.0, 8.0, -5.0, 9.0)),))

@@ -243,7 +243,7 @@ class FullNMPC(RecedingHorizon):
                 return iterate
         # No round succeeded: the plan without lines (or the guess), not the last failed iterate, which can be
         # anything; from one far off the solvers that follow can spend minutes (the wild iterate of
-        # tests/control/test_clearance.py's failing rounds held the step for minutes on the old code).
+        # tests/ocp/test_obstacles.py's failing rounds held the step for minutes on the old code).
         return start
 
     def _reference_guess(self, x0: np.ndarray, u_min: np.ndarray, u_max: np.ndarray) -> np.ndarray:
