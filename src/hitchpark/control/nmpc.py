@@ -4,7 +4,7 @@ Each step: move the measured pose into the parking frame of the goal (a paramete
 step, so one controller serves many goals and starts), warm-start from the shifted previous
 solution, solve, apply only the first move. A failed solve or a non-finite answer never
 reaches the vehicle: the step commands a stop and says why. Solvers come from the
-registry of :mod:`.solvers`: a primary, a fallback, and a last try from a cold start.
+registry of :mod:`hitchpark.solvers`: a primary, a fallback, and a last try from a cold start.
 """
 
 from __future__ import annotations
@@ -98,7 +98,7 @@ class TrailerNMPC(RecedingHorizon):
 
 
 class FullNMPC(RecedingHorizon):
-    """The full-model NMPC (:mod:`.full_ocp`): limits on the whole horizon, the command delay predicted out.
+    """The full-model NMPC (:mod:`hitchpark.ocp.full`): limits on the whole horizon, the command delay predicted out.
 
     ``act`` takes the measurement (pose, hitch, actual steer and speed) and the commands
     issued but not yet acted on (the known delay), predicts the state at which the new
@@ -130,7 +130,7 @@ class FullNMPC(RecedingHorizon):
 
     def keep_clear(self, scene: Scene, clearance_m: float) -> None:
         """Keep the bodies ``clearance_m`` from ``scene`` over the horizon from now on (the obstacle OCP, with
-        ``nmpc.obstacle_planes`` lines per body and step, :mod:`.clearance`); an empty scene, or no planes,
+        ``nmpc.obstacle_planes`` lines per body and step, :mod:`hitchpark.ocp.obstacles`); an empty scene, or no planes,
         solves the OCP of open space."""
         check_instance("scene", scene, Scene, "hitchpark.model.Scene(obstacles, area)")
         check_range("clearance_m", clearance_m, 0.0, 10.0, unit="m")

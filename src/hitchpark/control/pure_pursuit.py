@@ -40,7 +40,7 @@ __all__ = [
 
 @dataclass(frozen=True)
 class PurePursuitSettings:
-    """Forward-stage settings (the paper gives none; the defaults are justified in the README).
+    """Forward-stage settings (the paper gives none; docs/explanation/model.md justifies the defaults).
 
     Parameters
     ----------
@@ -55,7 +55,7 @@ class PurePursuitSettings:
     orientation_threshold : float
         ... and the trailer heading is within this of the goal heading [rad]. Not in the
         paper: without it the stage can end while the hitch angle passes through zero
-        in mid-turn, leaving the next reverse stage misaligned (see the README).
+        in mid-turn, leaving the next reverse stage misaligned (docs/explanation/model.md).
     max_distance : float
         Give up (stalled) after driving this far forward [m].
     length_tolerance : float

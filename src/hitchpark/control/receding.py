@@ -48,7 +48,7 @@ class NLPProblem:
 
     def inputs(self, duals: bool = False) -> dict[str, np.ndarray]:
         """The keyword arguments of a CasADi ``nlpsol`` call; with the multipliers if ``duals`` (and recorded):
-        for a solver that takes them (:func:`.solvers.takes_duals`)."""
+        for a solver that takes them (:func:`hitchpark.solvers.registry.takes_duals`)."""
         out = {"x0": self.w0, "p": self.p, "lbx": self.lbx, "ubx": self.ubx, "lbg": self.lbg, "ubg": self.ubg}
         if duals and self.lam_x0 is not None and self.lam_g0 is not None:
             out.update(lam_x0=self.lam_x0, lam_g0=self.lam_g0)
@@ -186,7 +186,7 @@ class RecedingHorizon:
         first step lasts 0.3, 0.2, 0.1, 0.3, ... s and the warm start is the last plan itself, or moved on by
         exactly one step. An interpolated start misses where the plan's inputs change within a step (where
         it starts braking at the limit, say), and the longer the horizon the more such changes it holds: the
-        iterations, and the time, of a long horizon grew with it (README, "Speed", "Prediction grid").
+        iterations, and the time, of a long horizon grew with it (docs/history/speed-notebook.md, "Prediction grid").
         """
         s, step = self.settings, self.prediction_step
         if not self.problem.first_step:

@@ -10,7 +10,7 @@ the speed within [speed_min, 0] (reverse). The cost is Eq. (49)'s quadratic form
 states and inputs, with a terminal weight P. One RK4 step per sample keeps the prediction
 accurate at 1 m/s.
 
-Among obstacles (:class:`FullParkingProblem` given a :class:`~.clearance.ClearanceConstraints`) every
+Among obstacles (:class:`FullParkingProblem` given a :class:`~.obstacles.ClearanceConstraints`) every
 predicted X_k also keeps the bodies on the free side of the scene's separating lines, which are
 parameters of each step: the obstacle OCP.
 
@@ -65,9 +65,9 @@ class FullParkingProblem:
         #: A step's parameters: its reference state when tracking, then its separating lines.
         self.n_ref = self.n_x if tracking else 0
         self.n_p = self.n_ref + (0 if clearance is None else clearance.n_params)
-        #: The first prediction step's length is the NLP's last parameter (:class:`~.ocp.OCP`): the grid stays
-        #: put in time. Not among obstacles: there the grid moving on a third of a step each sample took fewer
-        #: iterations (README, "Speed", "Prediction grid").
+        #: The first prediction step's length is the NLP's last parameter (the transcription's ``OCP.first_step``):
+        #: the grid stays put in time. Not among obstacles: there the grid moving on a third of a step each
+        #: sample took fewer iterations (docs/history/speed-notebook.md, "Prediction grid").
         self.first_step = clearance is None
         self.path_constraints: list[Callable[[Any, Any, int], tuple[Any, Any, Any]]] = []
         self._Q = ca.diag(ca.DM(list(settings.Q or ())))

@@ -2,7 +2,7 @@
 
    The same computation as clearance.separating_lines_numpy, operation for operation and in the same
    order, so that the two agree to the last bit: each NMPC step among obstacles draws its lines from
-   this, and in NumPy it was most of a tick's work (README, "Speed").
+   this, and in NumPy it was most of a tick's work (docs/performance.md).
 
    points   (k, c, 2)       the bodies' corners: c = 2 a segment, c > 2 a convex polygon, counter-clockwise
    ends     (k or 1, m, 2, 2) the segments, each body its own (ends_per_body) or the same for all

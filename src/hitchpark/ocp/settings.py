@@ -54,7 +54,7 @@ def _solver_options(value: Any, name: str = "nmpc.solver_options") -> dict[str, 
     return table
 
 
-#: Kinds of NMPC: the paper's trailer-only OCP (Eqs. 47-57) and the full-model OCP (:mod:`.full_ocp`).
+#: Kinds of NMPC: the paper's trailer-only OCP (Eqs. 47-57) and the full-model OCP (:mod:`.full`).
 NMPC_KINDS = ("full", "paper")
 
 #: The route of a kind whose own needs stages, when the transcription is single shooting.
@@ -72,7 +72,8 @@ KIND_DEFAULTS: dict[str, dict[str, Any]] = {
         "jit": False,
         "dual_floor": 1.0,
     },
-    # (x, y, yaw, hitch, steer, speed), (steer rate, acceleration); chosen by measured success (README).
+    # (x, y, yaw, hitch, steer, speed), (steer rate, acceleration); chosen by measured success
+    # (docs/explanation/realism.md).
     "full": {
         "horizon": 10,
         "prediction_dt": 0.3,
@@ -126,8 +127,8 @@ class NMPCSettings:
     max_steps : int
         A reverse stage that has not stopped after this many steps ends as stalled.
     solver : str or None
-        A registered route (:mod:`.solvers`, compared by ``hitchpark bench``): ``"riccati_c"`` (hitchpark's
-        own structure-exploiting interior point, :mod:`.riccati`, compiled with the OCP; both kinds'
+        A registered route (:mod:`hitchpark.solvers`, compared by ``hitchpark bench``): ``"riccati_c"`` (hitchpark's
+        own structure-exploiting interior point, :mod:`hitchpark.solvers.riccati`, compiled with the OCP; both kinds'
         default; fatrop_c where nothing compiles), ``"fatrop_c"`` (fatrop, the structure-exploiting interior
         point, generated to C with the OCP and compiled), ``"fatrop"`` (the same in-process), ``"sqp"``
         (CasADi sqpmethod with the qrqp QP solver, exact Hessian), ``"sqp_c"``, ``"sqp_bfgs"`` or
@@ -154,14 +155,14 @@ class NMPCSettings:
         False: each solve from the solver's own multipliers.
     dual_floor : float or None
         The least bound multiplier of that start (an interior point needs every one positive). None: the
-        kind's, measured on recorded problems (``README``, "Speed"): 1e-9 for the full kind, 1 for the
+        kind's, measured on recorded problems (docs/history/speed-notebook.md): 1e-9 for the full kind, 1 for the
         paper's, whose long horizons took more iterations with less.
     obstacle_planes : int
         Among obstacles the full NMPC keeps every body clear of the scene over its horizon: this many
         separating lines per body and prediction step, from the segments of the scene nearest to its warm
-        start (:mod:`.clearance`). 0: the obstacles are left to the guard outside the NMPC. Paper kind: unused.
+        start (:mod:`.obstacles`). 0: the obstacles are left to the guard outside the NMPC. Paper kind: unused.
     jit : bool or None
-        Compile the OCP's functions to C, cached on disk (:mod:`.compiled`); about twice as fast a
+        Compile the OCP's functions to C, cached on disk (:mod:`hitchpark.solvers.compiled`); about twice as fast a
         solve for the full kind. None: the kind's (full on, paper off). ``HITCHPARK_JIT=0`` or a
         machine without a C compiler runs uncompiled, with the same results to rounding.
     """

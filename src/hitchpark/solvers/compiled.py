@@ -2,7 +2,7 @@
 
 CasADi evaluates the NLP's functions (cost, constraints, their Jacobian and the Lagrangian's
 Hessian) in its virtual machine by default. Compiled with the system's C compiler they run
-several times faster; for the full-model OCP this halves the whole solve (README, "Speed").
+several times faster; for the full-model OCP this halves the whole solve (docs/performance.md).
 Compiling takes seconds, so the built solver and its shared library are kept in a cache folder
 named by a key of everything that shapes them (the NLP's expression graph, the plugin and its
 options, the CasADi version, the compiler and its flags), and the next process loads them in

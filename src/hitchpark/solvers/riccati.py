@@ -2,7 +2,7 @@
 
 fatrop, made for OCPs, keeps many blocks a stage (some 158 KiB a stage of the obstacle OCP), and at N = 80 an
 iteration walks through more than a core's second-level cache holds: a stage costs a fifth more there than
-at N = 10 (README, "Speed"). This solver (``riccati_ipm.c``, its method described at its top) keeps what a
+at N = 10 (docs/performance.md). This solver (``riccati_ipm.c``, its method described at its top) keeps what a
 stage needs together in one struct (11 KiB for the obstacle OCP, 4 KiB for the full one), in the work array
 the caller hands it, and allocates nothing: the C an embedded computer would run. CasADi writes the stage's
 functions (:func:`riccati_functions`: the transcription's own expressions, as :mod:`.stagewise` writes them)

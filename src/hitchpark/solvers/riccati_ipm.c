@@ -27,7 +27,7 @@
  * step just found, which it would miss by that product; the corrected step is kept where the fraction to
  * the boundary leaves it at least as long and the line search takes it whole, else the step uncorrected is
  * searched. A constraint coming active then closes most of its slack in one step, not a part each step (a
- * fifth fewer iterations on the recorded obstacle problems, README "Speed"). The step is cut by the
+ * fifth fewer iterations on the recorded obstacle problems, docs/history/speed-notebook.md). The step is cut by the
  * fraction to the boundary and then by IPOPT's backtracking filter line search (section 2.3 of the paper;
  * its constants), on the residuals' l1 norm theta and the barrier function phi = f - mu sum(log s), with
  * one second-order correction of a rejected full step (the Maratos effect: near the optimum a full step of

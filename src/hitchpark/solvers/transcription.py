@@ -56,7 +56,7 @@ class OCP(Protocol):
     #: Whether the first prediction step's length is a parameter, the NLP's last (``discrete_dynamics`` then
     #: takes a step length): the prediction grid stays where it is in time while the controller's samples pass,
     #: the first step shortening, instead of moving on a fraction of a step each sample
-    #: (:meth:`~.receding.RecedingHorizon._next_first_step`).
+    #: (:meth:`~hitchpark.control.receding.RecedingHorizon._next_first_step`).
     first_step: bool
 
     @property
