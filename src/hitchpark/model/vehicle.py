@@ -94,7 +94,7 @@ class VehicleTrailer:
             )
 
     def require_hitch_offset(self) -> None:
-        """Raise ``ValueError`` unless L_H > 0, which the inverse kinematics need."""
+        """Raise :class:`~hitchpark.checks.InputError` unless L_H > 0, which the inverse kinematics need."""
         if self.hitch_offset <= 0.0:
             raise InputError(
                 "hitch_offset must be > 0 m for the inverse kinematics (Eq. 45 divides by L_H); "

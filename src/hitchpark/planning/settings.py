@@ -52,8 +52,8 @@ class PlannerSettings:
         The forward cap assumes L_H and L_T this much (a fraction) longer than the vehicle's, as the tracker's
         cap does (:class:`~hitchpark.control.path_tracking.TrackingSettings`): the planned process sets it to
         the tracker's, so that a forward run planned is one the tracker can steer. 0: the vehicle's own cap.
-        The goal tree's primitives keep it too (read backwards they are reverse runs, whose front steer it
-        then also bounds).
+        The goal tree does not take it (:data:`~hitchpark.planning.prepare.TREE_FIELDS`): read backwards its
+        primitives are reverse runs, driven within the vehicle's own steer limit (the tracker's cap is a forward one).
     virtual_limit : float
         Largest virtual steer of the reverse primitives [rad] (the paper's NMPC bound, 0.5 rad: a
         trailer-axle radius of about 5 m on Table 4).

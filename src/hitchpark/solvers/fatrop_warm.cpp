@@ -18,7 +18,7 @@
 // fatrop offers no hook for a component of its own: the builder keeps the parts it builds private, and so
 // does the algorithm its initializer. Hence the one `#define private public` below, around fatrop's headers
 // only (the standard headers they use are included before it). Should a CasADi ship headers this does not
-// compile against, the library is built without this file (hitchpark.control.generated).
+// compile against, the library is built without this file (hitchpark.solvers.generated).
 
 #include <blasfeo.h>
 
@@ -53,7 +53,7 @@
 using fatrop::Index;
 using fatrop::OcpType;
 
-// Defined in the generated C (hitchpark.control.generated): the caller's multipliers in fatrop's layout.
+// Defined in the generated C (hitchpark.solvers.generated): the caller's multipliers in fatrop's layout.
 // Weak: a library whose C could not take it has no warm start, and no unresolved symbol.
 extern "C" int hitchpark_warm_duals(void *user_data, double *dual_eq) __attribute__((weak));
 

@@ -1,7 +1,7 @@
 /* A primal-dual interior-point method for a multiple-shooting OCP, its Newton steps by a Riccati recursion.
  *
- * hitchpark's own structured solver (the route ``riccati_c``, hitchpark.control.riccati). The NLP is the
- * transcription's (hitchpark.control.stagewise): w = [X_0, U_0, ..., X_N], g = [X_0 - x0, then for
+ * hitchpark's own structured solver (the route ``riccati_c``, hitchpark.solvers.riccati). The NLP is the
+ * transcription's (hitchpark.solvers.stagewise): w = [X_0, U_0, ..., X_N], g = [X_0 - x0, then for
  * k < N the gap X_{k+1} - F_k(X_k, U_k) and, for k > 0, the rows on X_k; then the rows on X_N]. Its
  * functions come stage by stage from CasADi's generated C (HP_LIN*: cost, gradient, dynamics and their
  * Jacobian, rows and theirs, the Lagrangian's Hessian block; HP_EV*: cost, dynamics and rows alone).
@@ -42,7 +42,7 @@
  * Before this file come the definitions of HP_N, HP_NX, HP_NU, HP_NR (rows a stage), HP_NP (parameters a
  * stage), HP_H0 (1: p ends with the first step's length, which stage 0's functions take), HP_TOL, HP_MU,
  * HP_MAX_ITER, HP_BOUND_PUSH (the least slack at the start), HP_CORRECTOR (1: Mehrotra's corrector), the
- * functions' names and their work sizes (hitchpark.control.riccati).
+ * functions' names and their work sizes (hitchpark.solvers.riccati).
  */
 
 #if defined(__GNUC__) && !defined(__clang__)
