@@ -112,7 +112,12 @@ def build_parser() -> argparse.ArgumentParser:
     _add_vehicle_options(p)
     _add_plant_option(p, "(default: the scenario's [plant], else the realistic car)")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    p.add_argument("--no-plots", action="store_true", help="write maneuver.json only")
+    p.add_argument("--no-plots", action="store_true", help="write maneuver.json only (no figures, no viewer)")
+    p.add_argument(
+        "--predictions",
+        action="store_true",
+        help="record the NMPC's predicted trailer path at each row in maneuver.json (the viewer draws it)",
+    )
     p.set_defaults(func=_cmd_park)
 
     p = sub.add_parser(

@@ -121,7 +121,16 @@ def _cmd_park(args: argparse.Namespace) -> int:
 
     from ..maneuver.process import park
 
-    result = park(sc.vehicle, sc.start, sc.goal, sc.settings, name=sc.name, plant=sc.plant, scene=sc.scene)
+    result = park(
+        sc.vehicle,
+        sc.start,
+        sc.goal,
+        sc.settings,
+        name=sc.name,
+        plant=sc.plant,
+        scene=sc.scene,
+        predictions=args.predictions,
+    )
     plots = not args.no_plots
     with staged as stage:
         saved = save_maneuver(result, stage, _renderer(plots, plots))

@@ -22,6 +22,7 @@ from ..model.kinematics import trailer_speed_from_rear_speed
 from ..model.plant import Command, Measurement, Plant
 from ..model.simulate import STATE_COLUMNS, Trajectory, state_columns
 from ..model.state import Pose, clamp
+from .predictions import predicted_path
 from .result import MANEUVER_COLUMNS, Outcome
 from .stages import Stage, StageEnd
 
@@ -67,6 +68,7 @@ class ClosedLoop:
     outcome: Outcome | None = None
     detail: str = ""
     clock: Clock | None = None
+    predictions: list[np.ndarray] | None = None  # one predicted path per row, when recorded (else None)
 
     def in_flight(self) -> tuple[Command, ...]:
         """The commands issued but not yet acted on: the known delay."""
@@ -120,6 +122,8 @@ class ClosedLoop:
             row["virtual_steer"].append(float(virtual_steer_from_front(vehicle, hitch, command.front_steer)))
         row["cost"].append(why.cost if why is not None else math.nan)
         row["solve_ms"].append(why.solve_ms if why is not None else math.nan)
+        if self.predictions is not None:
+            self.predictions.append(predicted_path(self.goal, why))
         return True
 
     def out_of_time(self) -> bool:
@@ -169,6 +173,8 @@ class ClosedLoop:
             ("solve_ms", math.nan),
         ):
             row[name].append(value)
+        if self.predictions is not None:
+            self.predictions.append(predicted_path(self.goal, None))
 
     def trajectory(self) -> Trajectory:
         cols: dict[str, Any] = {**self.rows, **state_columns(self.plant.vehicle, np.array(self.states))}

@@ -17,7 +17,9 @@ the outcome ``collision``.
 
 from __future__ import annotations
 
-from ..checks import InputError, check_instance, check_text
+from dataclasses import replace
+
+from ..checks import InputError, check_flag, check_instance, check_text
 from ..control.nmpc import FullNMPC, TrailerNMPC, make_nmpc
 from ..model.plant import Plant, PlantSettings
 from ..model.scene import Scene
@@ -26,6 +28,7 @@ from ..model.vehicle import VehicleTrailer, check_vehicle
 from .judge import is_parked, not_started, stage_result, verdict
 from .loop import SETTLE_TOLERANCE, Clock, ClosedLoop, run_stage
 from .planned import PlannedProcess
+from .predictions import Predictions
 from .result import ManeuverResult, Outcome, PlanRecord, StageResult
 from .settings import ManeuverSettings, SuccessCriteria
 from .stages import Ending, Process, StagedProcess, make_stages
@@ -78,6 +81,7 @@ def park(
     plant: PlantSettings | None = None,
     scene: Scene | None = None,
     clock: Clock | None = None,
+    predictions: bool = False,
 ) -> ManeuverResult:
     """Park the trailer at ``goal`` from ``start``: reverse, and forward and reverse again as needed (Fig. 7).
 
@@ -103,6 +107,9 @@ def park(
         ``settings.success.min_clearance_m`` (outcome ``collision`` if closer).
     clock : Clock, optional
         Paces the loop (``hitchpark realtime``: a wall-clock tick); default: as fast as it runs.
+    predictions : bool
+        Record the NMPC's predicted trailer-axle path at each row (:mod:`.predictions`, ``result.predictions``;
+        saved in ``maneuver.json``); off by default. The maneuver is the same either way.
 
     Returns
     -------
@@ -116,6 +123,7 @@ def park(
     loop = ClosedLoop(
         car, goal, plant.delay_steps, crit.max_time, vehicle.max_steer_rate, vehicle.max_accel, clock=clock
     )
+    loop.predictions = [] if check_flag("predictions", predictions) else None
     process = make_process(vehicle, settings, scene, controller, plant.delay_steps)
     stages, ending = _drive(loop, process, crit)
     if not stages:  # the process ended before any stage (no path from the start): one row, standing
@@ -129,6 +137,8 @@ def park(
     result = ManeuverResult(
         vehicle, start, goal, settings, success, outcome.value, tuple(stages), traj, name, plant, detail, scene, plans
     )
+    if loop.predictions is not None:
+        result = replace(result, predictions=Predictions.of(loop.predictions))
     if swept is not None:
         result.__dict__["swept"] = swept  # the cached property's value: computed once per maneuver
     return result

@@ -40,6 +40,7 @@ from ..model.simulate import BASE_COLUMNS, Trajectory
 from ..model.state import Pose, State, check_state, to_goal_frame
 from ..model.vehicle import VehicleTrailer, vehicle_from_dict
 from ..planning import STATUSES, Plan
+from .predictions import Predictions
 from .settings import MAX_MANEUVER_TIME, ManeuverSettings, ProcessSettings, SuccessCriteria
 
 __all__ = [
@@ -90,6 +91,7 @@ _SAVED_KEYS = (
     "settings",
     "trajectory",
     "plans",
+    "predictions",
 )
 _DERIVED_KEYS = (
     "duration_s",
@@ -216,6 +218,7 @@ class ManeuverResult:
     ``vehicle`` is the controller's model; ``plant`` the car it drove (``plant_vehicle`` its
     real lengths and limits). ``reason`` is the outcome's value; ``detail`` says more (the
     solver's status). ``scene`` holds the obstacles and area it moved among (empty by default).
+    ``predictions``: the NMPC's predicted paths row by row, when recorded (:mod:`.predictions`), else None.
     """
 
     vehicle: VehicleTrailer
@@ -231,6 +234,7 @@ class ManeuverResult:
     detail: str = ""
     scene: Scene = field(default_factory=Scene)
     plans: tuple[PlanRecord, ...] = ()
+    predictions: Predictions | None = None
 
     @property
     def outcome(self) -> Outcome:
@@ -313,7 +317,7 @@ class ManeuverResult:
             "stages": [s.to_dict() for s in self.stages],
             "settings": self.settings.to_dict(),
             "trajectory": self.trajectory.to_dict(),
-        }
+        } | ({} if self.predictions is None else {"predictions": self.predictions.to_dict()})
 
     @classmethod
     def from_dict(cls, data: Any) -> ManeuverResult:
@@ -351,6 +355,7 @@ class ManeuverResult:
             detail=detail,
             scene=scene,
             plans=tuple(PlanRecord.from_dict(p, f"plans[{i}]") for i, p in enumerate(_listed_tables("plans", data))),
+            predictions=None if data.get("predictions") is None else Predictions.from_dict(data["predictions"]),
         )
         result._check_layout()
         return result
@@ -381,3 +386,5 @@ class ManeuverResult:
             expected_first = st.last_row
         if expected_first != n - 1:
             raise InputError(f"the stages end at row {expected_first}, the trajectory at row {n - 1}")
+        if self.predictions is not None and len(self.predictions) != n:
+            raise InputError(f"predictions has {len(self.predictions)} rows, the trajectory {n}")
