@@ -36,6 +36,7 @@ __all__ = [
     "MANEUVER_FILES",
     "PAPER_TABLE5",
     "SUITES",
+    "VIEWER_FILE",
     "Render",
     "reproduce",
     "run_scenario",
@@ -51,7 +52,8 @@ __all__ = [
 #: does not write this time (figures of an earlier run with figures).
 FIGURE_FILES = ("motion.png", "inputs.png", "nmpc.png")
 ANIMATION_FILE = "maneuver.gif"
-MANEUVER_FILES = ("maneuver.json", "trajectory.csv", *FIGURE_FILES, ANIMATION_FILE)
+VIEWER_FILE = "maneuver.html"  # the viewer (hitchpark.viz.viewer): one page that opens offline
+MANEUVER_FILES = ("maneuver.json", "trajectory.csv", *FIGURE_FILES, ANIMATION_FILE, VIEWER_FILE)
 
 #: Frames of a maneuver's GIF (a ~40 s maneuver plays at about 2.5x real time at 10 fps).
 ANIMATION_FRAMES = 150

@@ -21,7 +21,16 @@ from .arguments import (
     parse_start,
     vehicle_from_args,
 )
-from .commands import IK_STUDY_FILES, _cmd_ik_study, _cmd_park, _cmd_plot, _cmd_reproduce, _cmd_simulate, _cmd_sweep
+from .commands import (
+    IK_STUDY_FILES,
+    _cmd_ik_study,
+    _cmd_park,
+    _cmd_plot,
+    _cmd_reproduce,
+    _cmd_simulate,
+    _cmd_sweep,
+    _cmd_view,
+)
 from .speed import add_speed_commands
 
 __all__ = [
@@ -127,8 +136,21 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("maneuver", type=Path, metavar="MANEUVER.json", help="a maneuver.json written by park/reproduce")
     p.add_argument("--out", metavar="DIR", help="output folder (default: beside the JSON)")
-    p.add_argument("--no-animation", action="store_true", help="figures only")
+    p.add_argument("--no-animation", action="store_true", help="figures and viewer only")
     p.set_defaults(func=_cmd_plot)
+
+    p = sub.add_parser(
+        "view",
+        help="write a maneuver's viewer: one HTML page that opens offline",
+        description="Write one self-contained HTML page of a saved maneuver (no network, no server: open it from "
+        "disk in a browser): the scene to scale, the car and trailer at a cursor you scrub or play, the paths, the "
+        "plans, the NMPC's predictions where recorded (park --predictions), and plots of steer, steer rate, speed, "
+        "hitch and clearance under it.",
+    )
+    p.add_argument("maneuver", type=Path, metavar="MANEUVER.json", help="a maneuver.json written by park/reproduce")
+    p.add_argument("--out", metavar="FILE.html", help="where to write it (default: maneuver.html beside the JSON)")
+    p.add_argument("--force", action="store_true", help="replace the file if it exists")
+    p.set_defaults(func=_cmd_view)
 
     p = sub.add_parser(
         "sweep",

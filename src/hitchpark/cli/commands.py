@@ -5,13 +5,16 @@ from __future__ import annotations
 import argparse
 import functools
 import math
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..checks import InputError
+from ..outputs import check_output_file
 from .arguments import UsageError, _finite, _plant, parse_goal, parse_start, scenario_from_arg, vehicle_from_args
 
 if TYPE_CHECKING:
     from ..app.report import Render
+    from ..maneuver.result import ManeuverResult
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
@@ -152,31 +155,59 @@ def _cmd_park(args: argparse.Namespace) -> int:
     return 0 if result.success else 1
 
 
-def _cmd_plot(args: argparse.Namespace) -> int:
-    from ..app.report import ANIMATION_FILE, FIGURE_FILES
-    from ..io import StagedFolder, read_json
+def _read_maneuver(path: Path) -> ManeuverResult:
+    """A saved maneuver.json, or a one-line :class:`UsageError` saying why it is not one."""
+    from ..io import read_json
     from ..maneuver.result import ManeuverResult
+
+    try:
+        data = read_json(path)
+    except OSError as exc:
+        raise UsageError(f"cannot read {path}: {exc.strerror or exc}") from None
+    except ValueError:  # not JSON, or not UTF-8 text
+        raise UsageError(f"{path} is not a hitchpark maneuver JSON (not JSON text)") from None
+    if not isinstance(data, dict):
+        raise UsageError(f"{path} is not a hitchpark maneuver JSON (not a JSON object)")
+    try:
+        return ManeuverResult.from_dict(data)
+    except InputError as exc:
+        raise UsageError(f"{path} is not a hitchpark maneuver JSON: {exc}") from None
+
+
+def _cmd_plot(args: argparse.Namespace) -> int:
+    from ..app.report import ANIMATION_FILE, FIGURE_FILES, VIEWER_FILE
+    from ..io import StagedFolder
     from ..viz.maneuver import render_maneuver
 
     flag, out = ("--out", args.out) if args.out is not None else ("output folder", args.maneuver.parent)
-    staged = StagedFolder(out, (*FIGURE_FILES, ANIMATION_FILE), flag)  # checks it before any work
-    try:
-        data = read_json(args.maneuver)
-    except OSError as exc:
-        raise UsageError(f"cannot read {args.maneuver}: {exc.strerror or exc}") from None
-    except ValueError:  # not JSON, or not UTF-8 text
-        raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON (not JSON text)") from None
-    if not isinstance(data, dict):
-        raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON (not a JSON object)")
-    try:
-        result = ManeuverResult.from_dict(data)
-    except InputError as exc:
-        raise UsageError(f"{args.maneuver} is not a hitchpark maneuver JSON: {exc}") from None
+    staged = StagedFolder(out, (*FIGURE_FILES, ANIMATION_FILE, VIEWER_FILE), flag)  # checks it before any work
+    result = _read_maneuver(args.maneuver)
     with staged as stage:
         files = render_maneuver(result, stage, plots=True, animation=not args.no_animation)
     for name, path in files.items():
         print(f"{name}: {staged.target / path.relative_to(stage)}")
     return 0
+
+
+def _cmd_view(args: argparse.Namespace) -> int:
+    from ..app.report import VIEWER_FILE
+    from ..viz.viewer import write_viewer
+
+    out = Path(args.out) if args.out is not None else args.maneuver.parent / VIEWER_FILE
+    check_html_name(out, "--out" if args.out is not None else "the viewer beside the JSON")
+    if out.exists() and not args.force:
+        raise UsageError(f"{out} exists; give --force to replace it, or another --out FILE.html")
+    result = _read_maneuver(args.maneuver)
+    path = write_viewer(result, out, force=args.force)
+    print(f"viewer: {path} ({path.stat().st_size / 1e6:.2f} MB; opens offline in a browser)")
+    return 0
+
+
+def check_html_name(path: Path, flag: str) -> None:
+    """An HTML page's name must end in .html (or .htm): a browser opens it as a page then."""
+    if path.suffix.lower() not in (".html", ".htm"):
+        raise UsageError(f"{flag} {path}: a viewer's name must end in .html (or .htm)")
+    check_output_file(path, flag)
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:

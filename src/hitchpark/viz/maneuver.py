@@ -24,6 +24,7 @@ from ..model.geometry import body_outlines, parking_space, wheel_outlines
 from .animation import animate_maneuver
 from .common import STAGE_COLORS
 from .figures import plot_maneuver
+from .viewer import render_viewer
 
 if TYPE_CHECKING:
     from ..maneuver.result import ManeuverResult
@@ -35,16 +36,20 @@ __all__ = [
     "parking_space",
     "plot_maneuver",
     "render_maneuver",
+    "render_viewer",
     "wheel_outlines",
 ]
 
 
 def render_maneuver(
-    result: ManeuverResult, folder: Path, plots: bool = True, animation: bool = True
+    result: ManeuverResult, folder: Path, plots: bool = True, animation: bool = True, viewer: bool = True
 ) -> dict[str, Path]:
-    """Draw the figures and/or the GIF of ``result`` into ``folder``; return the paths by name (a renderer of
-    :func:`~hitchpark.app.report.save_maneuver` and :func:`~hitchpark.app.report.reproduce`)."""
+    """Draw the figures and/or the GIF of ``result`` into ``folder``, and its viewer (``maneuver.html``,
+    :mod:`.viewer`); return the paths by name (a renderer of :func:`~hitchpark.app.report.save_maneuver` and
+    :func:`~hitchpark.app.report.reproduce`)."""
     files: dict[str, Path] = {}
+    if viewer:
+        files.update(render_viewer(result, folder))
     if plots:
         for p in plot_maneuver(result, folder):
             files[p.stem] = p
