@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from hitchpark.app.report import ANIMATION_FILE, FIGURE_FILES, MANEUVER_FILES, reproduce
+from hitchpark.app.report import ANIMATION_FILE, FIGURE_FILES, MANEUVER_FILES, VIEWER_FILE, reproduce
 from hitchpark.cli import EXIT_BAD_INPUT
 from hitchpark.maneuver.scenario import builtin_scenarios
 from test_cli import one_error_line, run, simulate_argv
@@ -150,7 +150,8 @@ def test_park_without_plots_removes_the_figures_of_an_earlier_run(reparked):
 
 @pytest.mark.slow
 def test_plot_replaces_only_figures(reparked, tmp_path, capsys):
-    """Plotting beside a maneuver.json: the figures are new, the stale GIF is gone, the data and notes stay."""
+    """Plotting beside a maneuver.json: the figures and the viewer are new, the stale GIF is gone, the data and notes
+    stay."""
     folder = tmp_path / "m"
     shutil.copytree(reparked.folder, folder)
     (folder / ANIMATION_FILE).write_text("a GIF of an earlier maneuver")
@@ -159,7 +160,8 @@ def test_plot_replaces_only_figures(reparked, tmp_path, capsys):
     assert run(["plot", str(folder / "maneuver.json"), "--no-animation"]) == 0, capsys.readouterr().err
     tree = snapshot(folder)
     kept = ("maneuver.json", "trajectory.csv", "notes.txt", "mine/motion.png")
-    assert sorted(tree) == sorted({*FIGURE_FILES, *kept, "mine"})
+    assert sorted(tree) == sorted({*FIGURE_FILES, VIEWER_FILE, *kept, "mine"})
+    assert tree[VIEWER_FILE].startswith(b"<!DOCTYPE html>")
     for name in kept:
         assert tree[name] == data[name]
     for name in FIGURE_FILES:

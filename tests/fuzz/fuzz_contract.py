@@ -48,6 +48,7 @@ WORK = (
     "hitchpark.maneuver.process.Plant",
     "hitchpark.app.report.run_scenario",
     "hitchpark.viz.maneuver.render_maneuver",
+    "hitchpark.viz.viewer.write_viewer",
     "hitchpark.app.sweep.run_sweep",
     "hitchpark.model.simulate.step_full",
     "hitchpark.app.ik_study.inverse_kinematics_study",

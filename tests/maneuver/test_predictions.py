@@ -62,12 +62,12 @@ def test_malformed_predictions_are_refused_saying_what(pair):
     _, on = pair
     data = json.loads(json.dumps(on.to_dict()))
     data["predictions"]["x_trailer"].pop()
-    with pytest.raises(InputError, match="x_trailer has .* rows"):
+    with pytest.raises(InputError, match=r"x_trailer has .* rows"):
         ManeuverResult.from_dict(data)
     data = json.loads(json.dumps(on.to_dict()))
     data["predictions"]["x_trailer"] = data["predictions"]["x_trailer"][1:]
     data["predictions"]["y_trailer"] = data["predictions"]["y_trailer"][1:]
-    with pytest.raises(InputError, match="predictions has .* rows, the trajectory"):
+    with pytest.raises(InputError, match=r"predictions has .* rows, the trajectory"):
         ManeuverResult.from_dict(data)
     data["predictions"] = {"x_trailer": "no"}
     with pytest.raises(InputError, match="predictions"):
