@@ -24,7 +24,7 @@ from typing import Any
 
 from ..checks import InputError, check_int
 from ..control.nmpc import FullNMPC, TrailerNMPC, make_nmpc
-from ..io import read_toml
+from ..io import read_toml, write_json
 from ..maneuver.planned import prepare_scene
 from ..maneuver.process import park
 from ..maneuver.result import ManeuverSettings
@@ -33,9 +33,10 @@ from ..model.plant import PlantSettings, load_plant
 from ..model.scene import Scene
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
-from ..outputs import check_output_file
+from ..outputs import check_output_file, check_output_folder
 from .executors import Executor, make_executor
 from .records import CaseRecord, RecordWriter, Start, case_record, scan_records
+from .report import Render
 from .starts import DEFAULT_REGION, MAX_CASES, Region, _ClearOf, draw_clear_starts, parse_region
 from .summary import summarize
 
@@ -47,6 +48,7 @@ __all__ = [
     "build_config",
     "config_from_scenario",
     "controller_for",
+    "kept_folder",
     "load_settings",
     "run_case",
     "run_sweep",
@@ -197,11 +199,19 @@ def controller_for(config: SweepConfig) -> TrailerNMPC | FullNMPC:
 
 @dataclass(frozen=True)
 class CaseTask:
-    """One case to run: the sweep's config, the case index and its start."""
+    """One case to run: the sweep's config, the case index and its start; where to keep its maneuver, if
+    anywhere (``keep/case_NNNN/maneuver.json``, and what ``render`` draws there)."""
 
     config: SweepConfig
     case: int
     start: Start
+    keep: Path | None = None
+    render: Render | None = None
+
+
+def kept_folder(keep: Path, case: int) -> Path:
+    """Where the maneuver of ``case`` is kept under ``--keep-maneuvers keep``."""
+    return Path(keep) / f"case_{case:04d}"
 
 
 def run_case(task: CaseTask) -> CaseRecord:
@@ -220,6 +230,12 @@ def run_case(task: CaseTask) -> CaseRecord:
         scene=config.scene,
     )
     wall = time.perf_counter() - t0
+    if task.keep is not None:
+        folder = kept_folder(task.keep, task.case)
+        folder.mkdir(parents=True, exist_ok=True)
+        write_json(folder / "maneuver.json", result.to_dict())
+        if task.render is not None:
+            task.render(result, folder)
     return CaseRecord(case=task.case, start=task.start, **case_record(result, wall))
 
 
@@ -251,6 +267,8 @@ def run_sweep(
     executor: Executor | None = None,
     progress: bool = False,
     on_record: Callable[[CaseRecord], None] | None = None,
+    keep: str | Path | None = None,
+    render: Render | None = None,
 ) -> SweepOutcome:
     """Run the cases of ``config`` that ``out`` lacks, appending a line to it as each one finishes.
 
@@ -258,7 +276,9 @@ def run_sweep(
     belong to this sweep (same start for the same case index, every index below n); a last line cut
     off by a kill is dropped and its case run again. A file holding anything else is refused with an
     :class:`InputError` before anything is changed. ``executor`` runs the cases (default: this
-    process); it is started only if there is something to run. ``progress`` shows a bar on stderr.
+    process); it is started only if there is something to run. ``progress`` shows a bar on stderr. ``keep``: a
+    folder where each case run now keeps its ``maneuver.json`` (``case_NNNN/``, :func:`kept_folder`), and what
+    ``render`` draws beside it (the command line's: the viewer); cases kept from ``out`` are not run again.
 
     Returns the records of all n cases, old and new, and their summary (:func:`~.records.summarize`,
     plus the seed, the region, ``skipped``: the starts drawn again as they collide with the scene, from
@@ -269,7 +289,8 @@ def run_sweep(
     starts, skipped = config.draw()
     existing = scan_records(out, starts)
     records = dict(existing.records)
-    todo = [CaseTask(config, case, start) for case, start in enumerate(starts) if case not in records]
+    keep = None if keep is None else check_output_folder(keep, "--keep-maneuvers")
+    todo = [CaseTask(config, case, start, keep, render) for case, start in enumerate(starts) if case not in records]
     executor = make_executor("serial") if executor is None else executor
     t0 = time.perf_counter()
     prepare_s = None

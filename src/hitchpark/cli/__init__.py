@@ -196,6 +196,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, metavar="FILE.jsonl", help="one JSON record per case")
     p.add_argument("--json", metavar="SUMMARY.json", help="write the summary here")
     p.add_argument("--map", metavar="FILE.png", help="draw the outcome over the start positions")
+    p.add_argument(
+        "--html",
+        metavar="FILE.html",
+        help="write the map as one HTML page that opens offline: hover a start for its outcome, filter by outcome "
+        "and reason, histograms of path length, planning time and switches",
+    )
+    p.add_argument(
+        "--keep-maneuvers",
+        metavar="DIR",
+        help="keep each case's maneuver.json and its viewer (maneuver.html) in DIR/case_NNNN/ (the cases run now); "
+        "the --html page links each start to its viewer",
+    )
     p.set_defaults(func=_cmd_sweep)
     add_speed_commands(sub)
     return parser

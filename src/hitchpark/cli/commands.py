@@ -206,7 +206,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
 def check_html_name(path: Path, flag: str) -> None:
     """An HTML page's name must end in .html (or .htm): a browser opens it as a page then."""
     if path.suffix.lower() not in (".html", ".htm"):
-        raise UsageError(f"{flag} {path}: a viewer's name must end in .html (or .htm)")
+        raise UsageError(f"{flag} {path}: an HTML page's name must end in .html (or .htm)")
     check_output_file(path, flag)
 
 
@@ -215,11 +215,15 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from ..app.summary import format_summary
     from ..app.sweep import build_config, run_sweep
     from ..io import write_json
-    from ..outputs import check_figure_name, check_output_files
+    from ..outputs import check_figure_name, check_output_files, check_output_folder
 
-    files = check_output_files({"--out": args.out, "--json": args.json, "--map": args.map}, append=["--out"])
+    named = {"--out": args.out, "--json": args.json, "--map": args.map, "--html": args.html}
+    files = check_output_files(named, append=["--out"])
     if "--map" in files:
         check_figure_name(files["--map"], "--map")
+    if "--html" in files:
+        check_html_name(files["--html"], "--html")
+    keep = None if args.keep_maneuvers is None else check_output_folder(args.keep_maneuvers, "--keep-maneuvers")
     scenario = scenario_from_arg(args.scenario) if args.scenario is not None else None
     config = build_config(
         n=args.n,
@@ -231,7 +235,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         scenario=scenario,
     )
     executor = sweep_executor(args.workers, args.dask)
-    outcome = run_sweep(config, files["--out"], executor, progress=True)
+    render = None
+    if keep is not None:
+        from ..viz.viewer import render_viewer
+
+        render = render_viewer
+    outcome = run_sweep(config, files["--out"], executor, progress=True, keep=keep, render=render)
     if "--json" in files:
         write_json(files["--json"], outcome.summary)
     if "--map" in files:
@@ -247,6 +256,20 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             goal=config.goal,
             scene=config.scene,
         )
+    if "--html" in files:
+        from ..viz.sweep_html import write_sweep_page
+
+        title = f"Sweep{' of ' + config.scenario if config.scenario else ''}, seed {config.seed}"
+        write_sweep_page(
+            outcome.records,
+            files["--html"],
+            keep,
+            vehicle=config.vehicle,
+            region=config.region,
+            title=title,
+            goal=config.goal,
+            scene=config.scene,
+        )
     cut = ", a cut last line dropped" if outcome.dropped_cut_line else ""
     where = f"scenario {config.scenario}, " if config.scenario else ""
     print(
@@ -255,7 +278,9 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     )
     print(format_summary(outcome.summary))
     print(f"records: {files['--out']}")
-    for name, flag in (("summary", "--json"), ("map", "--map")):
+    for name, flag in (("summary", "--json"), ("map", "--map"), ("page", "--html")):
         if flag in files:
             print(f"{name}: {files[flag]}")
+    if keep is not None:
+        print(f"maneuvers: {keep}/case_NNNN/ (maneuver.json, maneuver.html)")
     return 0
