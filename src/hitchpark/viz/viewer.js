@@ -172,6 +172,7 @@
       }
       g.setLineDash([]); g.globalAlpha = 1; drawn.push("paths");
     }
+    drawRig(g, T, r);
     if (view.layers.clearance && D.clearance && D.clearance.points) {
       const [[bx, by], [ox, oy]] = D.clearance.points;
       g.strokeStyle = COLORS.limit; g.lineWidth = 1.6 * r; poly(g, T, [[bx, by], [ox, oy]]); g.stroke();
@@ -179,7 +180,6 @@
       g.fillText(`least clearance ${fmtLen(D.clearance.least)}`, T.X(bx) + 6 * r, T.Y(by) - 8 * r);
       drawn.push("clearance");
     }
-    drawRig(g, T, r);
     const pred = D.predictions && D.predictions[view.row];
     if (view.layers.predictions && pred && pred.length) {
       g.strokeStyle = COLORS.prediction; g.fillStyle = COLORS.prediction; g.lineWidth = 1.8 * r;
