@@ -268,7 +268,15 @@ JSON_CASES: list[tuple[str, Callable[[dict[str, Any]], None] | str, str]] = [
     ("unknown outcome", _set("reason", "teleported"), "reason must be one of"),
     ("stages that do not tile the rows", _set("stages/0/last_row", 10**9), "do not follow on"),
     ("stage of an unknown kind", _set("stages/0/kind", "sideways"), "stage.kind"),
+    ("a maneuver of a later format", _set("format", "hitchpark-maneuver/2"), "reads 'hitchpark-maneuver/1'"),
+    ("another kind of file", _set("format", "hitchpark-sweep-summary/1"), "is not one this version"),
 ]
+
+
+def test_a_saved_maneuver_names_its_format_and_one_without_is_read_as_the_first(saved):
+    assert saved["format"] == "hitchpark-maneuver/1"
+    legacy = {k: v for k, v in saved.items() if k != "format"}  # written before formats had versions
+    assert ManeuverResult.from_dict(legacy).to_dict()["format"] == "hitchpark-maneuver/1"
 
 
 @pytest.mark.parametrize(("spoil", "match"), [c[1:] for c in JSON_CASES], ids=[c[0] for c in JSON_CASES])

@@ -14,7 +14,36 @@ from .checks import InputError
 from .outputs import replacing
 from .staging import StagedFolder  # here too, where it was first
 
-__all__ = ["StagedFolder", "read_json", "read_toml", "to_jsonable", "write_json"]
+__all__ = [
+    "FORMATS",
+    "StagedFolder",
+    "check_format",
+    "format_tag",
+    "read_json",
+    "read_toml",
+    "to_jsonable",
+    "write_json",
+]
+
+#: The version of each file format hitchpark writes: a file says which in its ``"format"`` key, ``NAME/VERSION``.
+#: A change that an older reader would misread (a field renamed, removed or of another meaning) raises the
+#: version; a new optional field does not. ``docs/reference/formats.md`` describes each.
+FORMATS = {"maneuver": 1, "sweep-summary": 1}
+
+
+def format_tag(name: str) -> str:
+    """What a file of format ``name`` carries in its ``"format"`` key: ``hitchpark-NAME/VERSION``."""
+    return f"hitchpark-{name}/{FORMATS[name]}"
+
+
+def check_format(name: str, data: dict[str, Any]) -> None:
+    """Refuse a file whose ``"format"`` is not this version of ``name`` (none: written before formats had
+    versions, which are version 1)."""
+    tag = data.get("format")
+    if tag is not None and tag != format_tag(name):
+        raise InputError(
+            f"format {str(tag)[:80]!r} is not one this version of hitchpark reads: it reads {format_tag(name)!r}"
+        )
 
 
 def to_jsonable(value: Any) -> Any:

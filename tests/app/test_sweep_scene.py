@@ -164,6 +164,7 @@ def test_cli_sweep_over_a_builtin_scene(tmp_path, capsys):
         assert region.x[0] <= r["start"]["x"] <= region.x[1] and region.y[0] <= r["start"]["y"] <= region.y[1]
         assert r["min_clearance_m"] is not None and r["collision"] is False
     data = json.loads(summary.read_text(encoding="utf-8"))
+    assert data["format"] == "hitchpark-sweep-summary/1"
     assert data["scenario"] == "curb_parallel" and data["skipped"] == 0 and data["collisions"] == 0
     # The scene's goal tree is built (or loaded) once before the cases, its time apart from theirs.
     assert data["prepare_s"] > 0.0

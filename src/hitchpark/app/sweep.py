@@ -24,7 +24,7 @@ from typing import Any
 
 from ..checks import InputError, check_int
 from ..control.nmpc import FullNMPC, TrailerNMPC, make_nmpc
-from ..io import read_toml, write_json
+from ..io import format_tag, read_toml, write_json
 from ..maneuver.planned import prepare_scene
 from ..maneuver.process import park
 from ..maneuver.result import ManeuverSettings
@@ -320,7 +320,13 @@ def run_sweep(
                 bar.leave = False
                 raise
     ordered = tuple(records[case] for case in range(config.n))
-    summary = {**summarize(ordered), "seed": config.seed, "region": config.region.to_dict(), "skipped": skipped}
+    summary = {
+        "format": format_tag("sweep-summary"),
+        **summarize(ordered),
+        "seed": config.seed,
+        "region": config.region.to_dict(),
+        "skipped": skipped,
+    }
     if config.scenario:
         summary.update(scenario=config.scenario, goal=config.goal.to_dict())
     if prepare_s is not None:

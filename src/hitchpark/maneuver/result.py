@@ -33,6 +33,7 @@ from ..checks import (
     checked,
     shown,
 )
+from ..io import check_format, format_tag
 from ..model.collision import swept_clearance
 from ..model.plant import PlantSettings
 from ..model.scene import Scene
@@ -77,6 +78,7 @@ FINITE_COLUMNS = (*BASE_COLUMNS, "front_steer_cmd", "rear_speed_cmd", "hitch_mea
 
 #: Keys of ``maneuver.json``: those read back, those written for readers only (derived from the rest).
 _SAVED_KEYS = (
+    "format",
     "name",
     "vehicle",
     "start",
@@ -297,6 +299,7 @@ class ManeuverResult:
 
     def to_dict(self) -> dict[str, Any]:
         return {
+            "format": format_tag("maneuver"),
             "name": self.name,
             "vehicle": self.vehicle.to_dict(),
             "start": self.start.to_dict(),
@@ -324,6 +327,7 @@ class ManeuverResult:
         """Rebuild a saved result, checked field by field; a malformed one is an ``InputError`` saying what."""
         known = (*_SAVED_KEYS, *_DERIVED_KEYS)
         data = check_keys("maneuver", data, known, "top-level key {!r}")
+        check_format("maneuver", data)
         missing = [k for k in _REQUIRED_KEYS if k not in data]
         if missing:
             raise InputError(f"maneuver data lacks {missing[0]!r}")
