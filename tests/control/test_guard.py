@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from hitchpark.control.guard import Guard
 from hitchpark.control.step import ControlStep
 from hitchpark.model import VehicleTrailer
+from hitchpark.model.kinematics import full_rhs
 from hitchpark.model.plant import Measurement
 from hitchpark.model.scene import Obstacle, Scene
 from hitchpark.model.state import Pose, State
@@ -59,3 +62,43 @@ def test_guard_speed_grows_with_room_from_zero():
     for room, v in zip(rooms, speeds, strict=True):  # it can stop within the room: lag, then braking at a/2
         a = 0.5 * V.max_accel
         assert 2.0 * (2 * 0.1 * v + v * v / (2 * a)) == pytest.approx(room, abs=1e-9)
+
+
+KERB = Scene((Obstacle("kerb", ((-30.0, 3.0), (30.0, 3.0), (30.0, 4.0), (-30.0, 4.0))),))
+
+
+def beside_the_kerb(guard: Guard, room: float) -> State:
+    """A straight rig heading +x with ``room`` metres more than the guard's clearance from the kerb at y = 3."""
+    now = float(guard.checker.clearances(np.zeros((1, 4)))[0])
+    return State(0.0, now - guard.need - room, 0.0, 0.0)
+
+
+@pytest.mark.parametrize("speed", [-1.0, 1.0])
+def test_along_the_scene_the_guard_does_not_hold_the_car_to_a_crawl(speed):
+    """Two centimetres from its clearance, straight along a kerb, nothing comes nearer while the car stops: the
+    bound alone (any way the bodies might move) would allow 0.05 m/s."""
+    guard = Guard(V, KERB, 0.2, 0.03, 0.1, 1)
+    state = beside_the_kerb(guard, 0.02)
+    assert guard.max_speed(0.02) < 0.06
+    got = guard.check(Measurement(0.0, state, 0.0, speed), Pose(), step(speed))
+    assert got.ok and got.rear_speed == speed
+
+
+@pytest.mark.parametrize("steer", [-0.3, 0.3])
+@pytest.mark.parametrize("room", [0.05, 0.2, 0.6])
+def test_turning_towards_the_scene_the_guard_allows_what_stops_in_time(steer, room):
+    """Turning towards or away from the kerb: the speed allowed stops the car (the lag, then braking at a/2) with
+    every body keeping the clearance, the steer held; towards it, less than the asked speed."""
+    guard = Guard(V, KERB, 0.2, 0.03, 0.1, 1)
+    state = beside_the_kerb(guard, room)
+    asked = 1.5
+    got = guard.check(Measurement(0.0, state, steer, asked), Pose(), replace(step(asked), front_steer=steer))
+    assert got.ok and 0.0 < got.rear_speed <= asked
+    travel = guard.stopping_travel(got.rear_speed)
+    x = np.array([state.x, state.y, state.yaw, state.hitch])
+    n = 400
+    for _ in range(n):  # a finer roll-out than the guard's, Euler
+        x = x + travel / n * full_rhs(V, x, np.array([1.0, steer]))
+        assert guard.checker.clearances(x[None])[0] >= guard.need - 1e-3
+    if steer > 0.0:  # a left turn swings the car's front towards the kerb
+        assert got.rear_speed < asked

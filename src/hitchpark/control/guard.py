@@ -8,7 +8,12 @@ stage ends, the process plans again from where the car stands). Otherwise it slo
 could stop before it gets that close: the rear axle's speed v satisfies
 ``k (v (delay + 1) dt + v^2 / (2 a)) <= clearance - min_clearance_m - margin_m``, with ``a`` half the
 acceleration limit (the loop's braking) and ``k`` = :data:`BODY_SPEED_RATIO` (a corner of a body moves
-faster than the rear axle when the car turns).
+faster than the rear axle when the car turns): a bound whatever way the bodies move. Where they move along
+the scene or away from it, that bound would hold the car to a crawl it need not keep: the guard also drives
+the model (Eqs. 19-24) on from the measured configuration, the steer held at what the car has and at what is
+asked, over the rear axle's stopping travel at the asked speed, and allows the speed whose stopping travel
+keeps ``min_clearance_m + margin_m`` on both (each sample that and half a body's travel between samples); the
+larger of the two caps holds.
 """
 
 from __future__ import annotations
@@ -19,17 +24,23 @@ from dataclasses import replace
 import numpy as np
 
 from ..model.checker import SceneChecker
+from ..model.kinematics import full_rhs
 from ..model.plant import Measurement
 from ..model.scene import Scene
 from ..model.state import Pose, from_goal_frame
 from ..model.vehicle import VehicleTrailer
 from .step import ControlStep
 
-__all__ = ["BODY_SPEED_RATIO", "Guard"]
+__all__ = ["BODY_SPEED_RATIO", "ROLLOUT_STEP_M", "Guard"]
 
 #: How much faster than the rear axle a point of a body can move, at most, in a parking maneuver:
 #: the car's front corners sweep about 1.6 times the axle's speed at full lock (Table 4's lengths).
 BODY_SPEED_RATIO = 2.0
+
+#: The rear axle's travel between the samples of the guard's roll-out of a stop [m]; a body's point moves at
+#: most :data:`BODY_SPEED_RATIO` times as far, so the clearance between two samples is at most half that lower
+#: than at the nearer one, and each sample must keep that much more.
+ROLLOUT_STEP_M = 0.01
 
 
 class Guard:
@@ -45,13 +56,41 @@ class Guard:
 
     def max_speed(self, room: float) -> float:
         """Largest rear-axle speed [m/s] that can stop within ``room`` metres of body travel."""
-        if room <= 0.0:
+        return self.speed_for_travel(room / BODY_SPEED_RATIO)
+
+    def stopping_travel(self, speed: float) -> float:
+        """The rear axle's travel [m] from the command at ``speed`` to standstill: the lag, then braking at a/2."""
+        speed = abs(speed)
+        return (self.delay + 1) * self.dt * speed + speed * speed / self.vehicle.max_accel
+
+    def free_travel(self, state: np.ndarray, direction: float, steers: tuple[float, ...], travel: float) -> float:
+        """How far [m] the rear axle can travel from ``state`` (x_t, y_t, yaw_t, hitch) in ``direction`` with each
+        front steer of ``steers`` held, up to ``travel``, while every body keeps the guard's clearance (and the
+        step's margin): ``travel`` if it keeps it all the way, 0 if not even the first step does."""
+        n = max(1, math.ceil(travel / ROLLOUT_STEP_M))
+        ds = travel / n
+        inputs = np.array([[math.copysign(1.0, direction)] * len(steers), list(steers)])
+        x = np.repeat(np.asarray(state, dtype=float)[:, None], len(steers), axis=1)
+        samples = []
+        for _ in range(n):  # RK4 over the rear axle's travel (unit speed), every steer at once
+            k1 = full_rhs(self.vehicle, x, inputs)
+            k2 = full_rhs(self.vehicle, x + 0.5 * ds * k1, inputs)
+            k3 = full_rhs(self.vehicle, x + 0.5 * ds * k2, inputs)
+            k4 = full_rhs(self.vehicle, x + ds * k3, inputs)
+            x = x + ds / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            samples.append(x.T)
+        clear = self.checker.clearances(np.vstack(samples)).reshape(n, len(steers)).min(axis=1)
+        short = np.flatnonzero(clear < self.need + BODY_SPEED_RATIO * ds / 2.0)
+        return travel if not len(short) else float(short[0]) * ds
+
+    def speed_for_travel(self, travel: float) -> float:
+        """Largest rear-axle speed [m/s] whose :meth:`stopping_travel` is at most ``travel``."""
+        if travel <= 0.0:
             return 0.0
         a = 0.5 * self.vehicle.max_accel
-        reach = room / BODY_SPEED_RATIO
         lag = (self.delay + 1) * self.dt
-        # Solve lag v + v^2 / (2 a) = reach for v >= 0.
-        return -a * lag + math.sqrt((a * lag) ** 2 + 2.0 * a * reach)
+        # Solve lag v + v^2 / (2 a) = travel for v >= 0.
+        return -a * lag + math.sqrt((a * lag) ** 2 + 2.0 * a * travel)
 
     def clear(self, configs: np.ndarray) -> bool:
         """Whether every configuration (rows x_t, y_t, yaw_t, hitch) keeps ``min_clearance_m + margin_m``."""
@@ -80,6 +119,13 @@ class Guard:
                 status=f"guard: too close to the scene: {ahead:.2f} m {'now' if now < self.need else 'ahead'}",
             )
         cap = self.max_speed(now - self.need)
+        if abs(step.rear_speed) <= cap:
+            return step
+        # The bound holds whatever way the bodies move; along the scene or away from it they may go faster.
+        state = np.array([s.x, s.y, s.yaw, s.hitch])
+        steers = (float(measurement.front_steer), float(step.front_steer))
+        free = self.free_travel(state, step.rear_speed, steers, self.stopping_travel(step.rear_speed))
+        cap = max(cap, self.speed_for_travel(free))
         if abs(step.rear_speed) <= cap:
             return step
         scale = cap / abs(step.rear_speed)

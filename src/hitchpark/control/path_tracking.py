@@ -95,6 +95,11 @@ def direction_segments(direction: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(starts, ends, strict=True))
 
 
+#: How far ahead of the nearest path point the plan's steer is taken forward [m]: the steer actuator's lag at
+#: the tracking speed.
+FEEDFORWARD_PREVIEW_M = 0.15
+
+
 class PathTracker:
     """Drives one direction segment of a planned path (see the module text); a stage's controller.
 
@@ -113,9 +118,13 @@ class PathTracker:
         configs: np.ndarray,
         direction: int,
         until_m: float = 0.0,
+        steers: np.ndarray | None = None,
     ):
         self.vehicle, self.settings, self.dt, self.direction = vehicle, settings, dt, int(direction)
         configs = np.asarray(configs, dtype=float)
+        self.configs = configs
+        # Forward, the plan's own front steer at each row (None: pure pursuit alone).
+        self.steers = None if steers is None or self.direction < 0 else np.asarray(steers, dtype=float)
         if self.direction > 0:
             xr, yr, _ = rear_axle_pose(vehicle, configs[:, 0], configs[:, 1], configs[:, 2], configs[:, 3])
             self.points = np.column_stack([xr, yr])
@@ -182,7 +191,21 @@ class PathTracker:
         alpha = float(wrap_angle(math.atan2(py - y, px - x) - heading))
         v = self.vehicle
         if self.direction > 0:
-            return pursuit_steer(v.wheelbase, alpha, distance, self.cap)
+            pursued = pursuit_steer(v.wheelbase, alpha, distance, self.cap)
+            if self.steers is None or len(self.steers) != len(self.points):
+                return pursued
+            # The plan's steer ahead (the actuator's lag) and pure pursuit's correction: what it asks here
+            # less what it would ask on the path at the same place, zero when the car is on its path.
+            k = self.index
+            c = self.configs[k]
+            on_x, on_y = self.points[k]
+            on_heading = float(c[2] + c[3])
+            on_alpha = float(wrap_angle(math.atan2(py - on_y, px - on_x) - on_heading))
+            on_distance = max(math.hypot(px - on_x, py - on_y), 1e-6)
+            ideal = pursuit_steer(v.wheelbase, on_alpha, on_distance, self.cap)
+            ahead = int(np.searchsorted(self.s, self.s[k] + FEEDFORWARD_PREVIEW_M))
+            planned = float(self.steers[min(ahead, len(self.steers) - 1)])
+            return clamp(planned + (pursued - ideal), -self.cap, self.cap)
         # Driven backwards, a positive virtual steer turns the direction of travel the other way.
         virtual = -pursuit_steer(v.trailer_length, alpha, distance, self.settings.virtual_limit)
         front = float(front_steer_from_virtual(v, float(state[3]), virtual))  # Eq. (45)

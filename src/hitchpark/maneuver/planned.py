@@ -280,8 +280,10 @@ class PlannedProcess:
         """
         steer = np.zeros(len(configs)) if steer is None else steer
         segments = []
+        segment_steers: list[np.ndarray] = []
         if direction is not None:
             segments = [(configs[a : b + 1], int(direction[a + 1])) for a, b in direction_segments(direction)]
+            segment_steers = [steer[a : b + 1] for a, b in direction_segments(direction)]
         end = to_goal_frame(goal, configs[-1, 0], configs[-1, 1], configs[-1, 2])[0]
         line = straight_approach(goal, max(float(end), 0.0), 0.1)[::-1]  # from abreast of the path's end to the goal
         # The NMPC's reference: the planned part of the last segment and its front steer (it makes its own
@@ -299,7 +301,8 @@ class PlannedProcess:
             if last and track:
                 break
             until = self.settings.process.handover_m if last else 0.0
-            tracker = PathTracker(self.vehicle, self.tracking, self.settings.nmpc.dt, part, d, until)
+            steers = segment_steers[i] if i < len(segment_steers) and len(segment_steers[i]) == len(part) else None
+            tracker = PathTracker(self.vehicle, self.tracking, self.settings.nmpc.dt, part, d, until, steers)
             if tracker.stop_at > 0.0:
                 stages.append(self._guarded(TrackingStage(tracker)))
         reference = None

@@ -17,7 +17,7 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
 
-from ..model.collision import swept_clearance
+from ..model.collision import MAX_STEP_M, swept_clearance
 from ..model.scene import Scene
 from ..model.vehicle import VehicleTrailer
 from .discs import Discs
@@ -34,10 +34,19 @@ SKIM_EVERY = 4
 class Screen:
     """Which motions keep ``clearance`` from a scene: the fast check of :class:`Discs` on a :class:`DistanceGrid`,
     and, for a motion it refuses where the grid does not show a body surely too near, the exact swept
-    clearance (the fast check's error, about 0.12 m, is more than a goal at a curb leaves)."""
+    clearance (the fast check's error, about 0.12 m, is more than a goal at a curb leaves), its sub-steps at most
+    ``max_step_m`` (its bound low by at most half that)."""
 
-    def __init__(self, vehicle: VehicleTrailer, scene: Scene, grid: DistanceGrid, clearance: float):
+    def __init__(
+        self,
+        vehicle: VehicleTrailer,
+        scene: Scene,
+        grid: DistanceGrid,
+        clearance: float,
+        max_step_m: float = MAX_STEP_M,
+    ):
         self.vehicle, self.scene, self.grid, self.clearance = vehicle, scene, grid, clearance
+        self.max_step_m = max_step_m
         self.discs = Discs(vehicle)
 
     def fast(self, motions: np.ndarray) -> np.ndarray:
@@ -72,7 +81,7 @@ class Screen:
 
     def exact(self, motion: np.ndarray) -> bool:
         """Whether one motion (k + 1, 4) keeps the clearance by the exact swept clearance."""
-        return bool(swept_clearance(self.vehicle, self.scene, motion[:, :4])[0] >= self.clearance)
+        return bool(swept_clearance(self.vehicle, self.scene, motion[:, :4], self.max_step_m)[0] >= self.clearance)
 
 
 class HolonomicHeuristic:

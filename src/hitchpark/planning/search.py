@@ -40,6 +40,13 @@ DUBINS_EVERY = 10
 #: start_slack_m``.
 START_MARGIN_M = MAX_STEP_M / 2 + 0.005
 
+#: From such a start the exact check's sub-steps are this fine [m]: the first motions away from a wall the car
+#: stands by keep little more than the start does, and a bound low by 2.5 cm would refuse them all.
+NEAR_START_STEP_M = 0.01
+
+#: What a path from a start within the slack keeps less than the start [m]: half the fine sub-step, and 5 mm.
+NEAR_START_MARGIN_M = NEAR_START_STEP_M / 2 + 0.005
+
 #: Cap on the nodes of one search (memory bound; ``max_expansions`` ends a search first).
 MAX_NODES = 2_000_000
 
@@ -169,9 +176,9 @@ class Search:
                 return self._done("no_path", f"the start keeps only {exact:.3g} m from the scene")
             if s.start_slack_m > 0.0 and exact < s.min_clearance_m + START_MARGIN_M:
                 # Within the slack, or just clear: the path keeps what the start keeps, less the margin (any
-                # turn away from a kerb the start stands by swings some body nearer it).
-                keep = max(min(s.min_clearance_m, exact - START_MARGIN_M), s.min_clearance_m - s.start_slack_m)
-                self.screen = Screen(self.vehicle, self.scene, self.grid, keep)
+                # turn away from a kerb the start stands by swings some body nearer it), checked finely.
+                keep = max(min(s.min_clearance_m, exact - NEAR_START_MARGIN_M), s.min_clearance_m - s.start_slack_m)
+                self.screen = Screen(self.vehicle, self.scene, self.grid, keep, NEAR_START_STEP_M)
             # Exactly (the fast check is conservative by a few decimetres, and a goal in a tight space is the point).
             at_goal, _ = swept_clearance(
                 self.vehicle, self.scene, np.array([[self.goal.x, self.goal.y, self.goal.yaw, 0.0]])
@@ -387,7 +394,7 @@ class Search:
             return True
         states = self._path(nodes, last)
         configs = np.column_stack([states[k] for k in ("x_trailer", "y_trailer", "yaw_trailer", "hitch")])
-        bound, _ = swept_clearance(self.vehicle, self.scene, configs)
+        bound, _ = swept_clearance(self.vehicle, self.scene, configs, self.screen.max_step_m)
         return bound >= self.screen.clearance
 
     def _path(self, nodes: list[Node], last: int) -> dict[str, np.ndarray]:
