@@ -31,7 +31,7 @@ from ..model.state import Pose, from_goal_frame
 from ..model.vehicle import VehicleTrailer
 from .step import ControlStep
 
-__all__ = ["BODY_SPEED_RATIO", "ROLLOUT_STEP_M", "Guard"]
+__all__ = ["BODY_SPEED_RATIO", "ROLLOUT_STEP_M", "Guard", "speed_for_travel"]
 
 #: How much faster than the rear axle a point of a body can move, at most, in a parking maneuver:
 #: the car's front corners sweep about 1.6 times the axle's speed at full lock (Table 4's lengths).
@@ -41,6 +41,14 @@ BODY_SPEED_RATIO = 2.0
 #: most :data:`BODY_SPEED_RATIO` times as far, so the clearance between two samples is at most half that lower
 #: than at the nearer one, and each sample must keep that much more.
 ROLLOUT_STEP_M = 0.01
+
+
+def speed_for_travel(travel: float, decel: float, lag: float) -> float:
+    """Largest speed [m/s] that travels at most ``travel`` [m] to standstill: ``lag`` seconds at that speed, then
+    braking at ``decel`` [m/s^2] (``lag v + v^2 / (2 decel) <= travel``); 0 for no room."""
+    if travel <= 0.0:
+        return 0.0
+    return -decel * lag + math.sqrt((decel * lag) ** 2 + 2.0 * decel * travel)
 
 
 class Guard:
@@ -85,12 +93,7 @@ class Guard:
 
     def speed_for_travel(self, travel: float) -> float:
         """Largest rear-axle speed [m/s] whose :meth:`stopping_travel` is at most ``travel``."""
-        if travel <= 0.0:
-            return 0.0
-        a = 0.5 * self.vehicle.max_accel
-        lag = (self.delay + 1) * self.dt
-        # Solve lag v + v^2 / (2 a) = travel for v >= 0.
-        return -a * lag + math.sqrt((a * lag) ** 2 + 2.0 * a * travel)
+        return speed_for_travel(travel, 0.5 * self.vehicle.max_accel, (self.delay + 1) * self.dt)
 
     def clear(self, configs: np.ndarray) -> bool:
         """Whether every configuration (rows x_t, y_t, yaw_t, hitch) keeps ``min_clearance_m + margin_m``."""

@@ -23,6 +23,7 @@ __all__ = [
     "front_steer_from_virtual",
     "front_steer_from_virtual_tangent",
     "rear_speed_from_trailer_speed",
+    "steady_hitch_from_virtual",
     "trailer_speed_from_virtual",
     "vehicle_yaw_rate_from_virtual",
     "virtual_steer_bounds",
@@ -88,6 +89,22 @@ def virtual_steer_from_front(vehicle: VehicleTrailer, hitch_angle: Any, front_st
     s, c, t = m.sin(hitch_angle), m.cos(hitch_angle), m.tan(front_steer)
     L, L_H = vehicle.wheelbase, vehicle.hitch_offset
     return m.atan2(L * s - L_H * c * t, L * c + L_H * s * t)  # Eq. (56)
+
+
+def steady_hitch_from_virtual(vehicle: VehicleTrailer, virtual_steer: Any) -> Any:
+    """Hitch angle at which a virtual steer held constant keeps the hitch still: Eq. (43) equal to Eq. (42).
+
+    The vehicle then turns at the trailer's yaw rate, both about one centre, and the trailer axle runs on a
+    circle of curvature tan(delta_T) / L_T. Setting (V_T / L_H)(sin h - cos h tan delta_T) = (V_T / L_T) tan delta_T
+    and dividing by sqrt(1 + tan^2 delta_T) gives sin(h - delta_T) = (L_H / L_T) sin(delta_T), so
+    ``h = delta_T + asin((L_H / L_T) sin delta_T)``, whatever the speed and its sign. With L_H > L_T the asin's
+    argument is clipped to [-1, 1] (past it no steady turn exists; the hitch there is the nearest one).
+    NumPy only (floats or arrays).
+    """
+    (virtual_steer,) = _inputs(vehicle, virtual_steer=virtual_steer)
+    ratio = np.clip(vehicle.hitch_offset / vehicle.trailer_length * np.sin(virtual_steer), -1.0, 1.0)
+    hitch = virtual_steer + np.arcsin(ratio)
+    return float(hitch) if np.ndim(hitch) == 0 else hitch
 
 
 def _eq44_ratio(hitch_angle: Any, virtual_steer: Any) -> Any:
