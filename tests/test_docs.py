@@ -7,7 +7,8 @@ from dataclasses import fields
 from pathlib import Path
 
 from hitchpark.app.records import CaseRecord
-from hitchpark.maneuver.result import _DERIVED_KEYS, _SAVED_KEYS, MANEUVER_COLUMNS
+from hitchpark.assist import OVERRIDES
+from hitchpark.maneuver.result import _DERIVED_KEYS, _SAVED_KEYS, ASSIST_COLUMNS, MANEUVER_COLUMNS, Outcome
 
 FORMATS = Path(__file__).resolve().parent.parent / "docs" / "reference" / "formats.md"
 
@@ -26,7 +27,8 @@ def _section(title: str) -> str:
 def test_the_maneuver_file_lists_every_key_and_column_it_has():
     named = _named(_section("`maneuver.json`"))
     assert set(_SAVED_KEYS) <= named and set(_DERIVED_KEYS) <= named
-    assert set(MANEUVER_COLUMNS) <= named
+    assert set(MANEUVER_COLUMNS) <= named and set(ASSIST_COLUMNS) <= named
+    assert set(OVERRIDES) <= named and {o.value for o in Outcome if " " not in o.value} <= named
 
 
 def test_the_sweep_records_list_every_field_and_no_other():

@@ -23,6 +23,7 @@ from .arguments import (
 )
 from .commands import (
     IK_STUDY_FILES,
+    _cmd_assist,
     _cmd_ik_study,
     _cmd_park,
     _cmd_plot,
@@ -128,6 +129,24 @@ def build_parser() -> argparse.ArgumentParser:
         help="record the NMPC's predicted trailer path at each row in maneuver.json (the viewer draws it)",
     )
     p.set_defaults(func=_cmd_park)
+
+    p = sub.add_parser(
+        "assist",
+        help="back up with the knob assist: a knob profile steers the trailer",
+        description="Drive a knob profile (CSV with the header t,knob,speed_request: knob in [-1, 1] the trailer's "
+        "path curvature, 1 the tightest steady turn; speed_request the reverse speed [m/s]; values held between "
+        "rows) through the knob assist from the scenario's start, among its obstacles, on a simulated car, and "
+        "write DIR/maneuver.json (with the knob, the request and the overrides as columns), trajectory.csv, "
+        "figures and maneuver.html. Exit status 1 if it jackknifes, collides or breaks a limit.",
+    )
+    p.add_argument(
+        "--scenario", required=True, type=Path, metavar="FILE.toml|NAME", help="scenario file or built-in name"
+    )
+    p.add_argument("--knob", required=True, type=Path, metavar="PROFILE.csv", help="the knob profile")
+    _add_plant_option(p, "(default: the scenario's [plant], else the realistic car)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.add_argument("--no-plots", action="store_true", help="write maneuver.json and trajectory.csv only")
+    p.set_defaults(func=_cmd_assist)
 
     p = sub.add_parser(
         "plot",

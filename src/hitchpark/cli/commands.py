@@ -155,6 +155,38 @@ def _cmd_park(args: argparse.Namespace) -> int:
     return 0 if result.success else 1
 
 
+def _cmd_assist(args: argparse.Namespace) -> int:
+    from ..app.report import MANEUVER_FILES, save_maneuver
+    from ..assist import OVERRIDES
+    from ..io import StagedFolder
+    from ..maneuver.assisted import drive_assisted, load_knob_profile
+
+    staged = StagedFolder(args.out, MANEUVER_FILES, "--out")  # checks --out before any work
+    sc = scenario_from_arg(args.scenario)
+    profile = load_knob_profile(args.knob)
+    plant = _plant(args) or sc.plant
+    result = drive_assisted(
+        sc.vehicle, sc.start, profile, goal=sc.goal, settings=sc.settings, plant=plant, scene=sc.scene, name=sc.name
+    )
+    plots = not args.no_plots
+    with staged as stage:
+        saved = save_maneuver(result, stage, _renderer(plots, plots))
+        files = {k: staged.target / p.relative_to(stage) for k, p in saved.items()}
+    tr = result.trajectory
+    codes = tr["override"][:-1]
+    dt = float(tr["t"][1] - tr["t"][0]) if len(tr) > 1 else 0.0
+    acted = ", ".join(f"{name} {dt * n:.1f} s" for i, name in enumerate(OVERRIDES) if i and (n := int(sum(codes == i))))
+    clearance = "" if result.min_clearance_m is None else f", least clearance {result.min_clearance_m:.2f} m"
+    print(
+        f"{result.reason}{f' ({result.detail})' if result.detail else ''} after {result.duration:.1f} s: "
+        f"max |hitch| {result.max_abs_hitch_deg:.1f} deg, max |front steer| {result.max_abs_front_steer_deg:.1f} deg"
+        f"{clearance}; overrides: {acted or 'none'}"
+    )
+    for name, path in files.items():
+        print(f"{name}: {path}")
+    return 0 if result.success else 1
+
+
 def _read_maneuver(path: Path) -> ManeuverResult:
     """A saved maneuver.json, or a one-line :class:`UsageError` saying why it is not one."""
     from ..io import read_json

@@ -69,6 +69,7 @@ class ClosedLoop:
     detail: str = ""
     clock: Clock | None = None
     predictions: list[np.ndarray] | None = None  # one predicted path per row, when recorded (else None)
+    extras: dict[str, list[float]] | None = None  # a controller's own columns (the knob assist's), NaN where none
 
     def in_flight(self) -> tuple[Command, ...]:
         """The commands issued but not yet acted on: the known delay."""
@@ -124,6 +125,10 @@ class ClosedLoop:
         row["solve_ms"].append(why.solve_ms if why is not None else math.nan)
         if self.predictions is not None:
             self.predictions.append(predicted_path(self.goal, why))
+        if self.extras is not None:
+            own = getattr(why, "columns", {})
+            for name, values in self.extras.items():
+                values.append(own.get(name, math.nan))
         return True
 
     def out_of_time(self) -> bool:
@@ -175,10 +180,12 @@ class ClosedLoop:
             row[name].append(value)
         if self.predictions is not None:
             self.predictions.append(predicted_path(self.goal, None))
+        for values in (self.extras or {}).values():
+            values.append(math.nan)
 
     def trajectory(self) -> Trajectory:
         cols: dict[str, Any] = {**self.rows, **state_columns(self.plant.vehicle, np.array(self.states))}
-        return Trajectory({c: cols[c] for c in MANEUVER_COLUMNS})
+        return Trajectory({c: cols[c] for c in MANEUVER_COLUMNS} | (self.extras or {}))
 
 
 def run_stage(loop: ClosedLoop, index: int, stage: Stage) -> StageEnd:

@@ -45,6 +45,7 @@ from .predictions import Predictions
 from .settings import MAX_MANEUVER_TIME, ManeuverSettings, ProcessSettings, SuccessCriteria
 
 __all__ = [
+    "ASSIST_COLUMNS",
     "MANEUVER_COLUMNS",
     "PLAN_COLUMNS",
     "ManeuverResult",
@@ -71,6 +72,11 @@ MANEUVER_COLUMNS = (
     "solve_ms",
 )
 
+
+#: The knob assist's own columns (``hitchpark assist``, ``drive``; absent from a parking maneuver): the knob, the
+#: reverse speed requested [m/s], the override (an index in :data:`hitchpark.assist.OVERRIDES`), the curvature
+#: the knob asks and the one the assist follows [1/m]; missing (null) on the rows no assist step made.
+ASSIST_COLUMNS = ("knob", "speed_request", "override", "curvature_asked", "curvature_cmd")
 
 #: Columns that are numbers on every row; the others are missing (None in JSON) where they do not apply
 #: (no solve on a forward step, say).
@@ -120,12 +126,15 @@ class Outcome(StrEnum):
     COLLISION = "collision"  # a body touched an obstacle, left the area, or came closer than min_clearance_m
     NO_PATH = "no_path"  # the planner found no way (or gave up replanning); the car was stopped
     PLANNER_TIMEOUT = "planner_timeout"  # the planner's wall-clock safety net passed; the car was stopped
+    DRIVEN = "driven"  # a knob-assisted drive ran its knob profile to the end and stopped (``hitchpark assist``)
+    STOPPED_FOR_OBSTACLE = "stopped_for_obstacle"  # a knob-assisted drive ended held by the guard before the scene
+    STOPPED_BY_DRIVER = "stopped_by_driver"  # a live drive the driver stopped (Esc, ``hitchpark drive``)
 
 
 @dataclass(frozen=True)
 class StageResult:
     """One stage: its kind, number of applied steps, rows [first_row, last_row], its end errors, why it
-    ended, and the controller that drove it (``nmpc``, ``pursuit`` or ``tracking``)."""
+    ended, and the controller that drove it (``nmpc``, ``pursuit``, ``tracking`` or ``assist``)."""
 
     kind: str = checked(check=Choice(("reverse", "forward")))
     steps: int = checked(check=Integer(0))
@@ -135,7 +144,8 @@ class StageResult:
     first_row: int = checked(check=Integer(0))
     last_row: int = checked(check=Integer(0))
     reason: str = checked(check=Text(max_length=200))
-    controller: str = checked("", Choice(("", "nmpc", "pursuit", "tracking")))  # "": not recorded (older files)
+    # "": not recorded (older files)
+    controller: str = checked("", Choice(("", "nmpc", "pursuit", "tracking", "assist")))
 
     def __post_init__(self) -> None:
         check_fields(self, "stage.")
