@@ -48,3 +48,10 @@ def test_the_scene_tutorials_file_is_the_one_it_shows_and_loads():
     scenario = load_scenario(example)
     assert scenario.name == "my_driveway" and len(scenario.scene.obstacles) == 2
     assert scenario.start_region is not None
+
+
+def test_the_assist_sweep_records_list_every_field():
+    from hitchpark.app.assist_sweep import AssistRecord
+
+    named = _named(_section("An assist sweep's `--out`"))
+    assert {f.name for f in fields(AssistRecord)} <= named

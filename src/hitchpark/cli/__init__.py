@@ -222,6 +222,16 @@ def build_parser() -> argparse.ArgumentParser:
         "and reason, histograms of path length, planning time and switches",
     )
     p.add_argument(
+        "--assist",
+        nargs="+",
+        choices=("hold", "slalom", "steps", "noise"),
+        metavar="FAMILY",
+        help="sweep the knob assist instead of parking: N starts for each knob profile family (hold, slalom, "
+        "steps, noise), 60 s each, drawn from the seed; --out gets one record per case (max |hitch|, limit "
+        "violations, overrides, curvature error, clearance), --json the summary; not with --map, --html, "
+        "--keep-maneuvers",
+    )
+    p.add_argument(
         "--keep-maneuvers",
         metavar="DIR",
         help="keep each case's maneuver.json and its viewer (maneuver.html) in DIR/case_NNNN/ (the cases run now); "

@@ -187,6 +187,39 @@ def _cmd_assist(args: argparse.Namespace) -> int:
     return 0 if result.success else 1
 
 
+def _assist_sweep(args: argparse.Namespace, config: Any, files: dict[str, Path], executor: Any) -> int:
+    import time
+
+    from ..app.assist_sweep import format_assist_summary, run_assist_sweep
+    from ..io import write_json
+
+    out = files["--out"]
+    if out.exists() and out.stat().st_size > 0:
+        raise UsageError(f"{out} is not empty: an assist sweep writes its records afresh, give a new --out")
+    families = tuple(dict.fromkeys(args.assist))
+    t0 = time.perf_counter()
+    _, summary = run_assist_sweep(config, families, out, executor)
+    summary = {
+        "families": list(families),
+        "n": config.n,
+        "seed": config.seed,
+        "region": config.region.to_dict(),
+        **summary,
+    }
+    if "--json" in files:
+        write_json(files["--json"], summary)
+    where = f"scenario {config.scenario}, " if config.scenario else ""
+    print(
+        f"assist sweep of {config.n} starts x {len(families)} knob families ({where}seed {config.seed}, region "
+        f"{config.region}) in {time.perf_counter() - t0:.1f} s on {executor.describe()}:"
+    )
+    print(format_assist_summary({k: summary[k] for k in ("all", *families)}))
+    print(f"records: {out}")
+    if "--json" in files:
+        print(f"summary: {files['--json']}")
+    return 0
+
+
 def _read_maneuver(path: Path) -> ManeuverResult:
     """A saved maneuver.json, or a one-line :class:`UsageError` saying why it is not one."""
     from ..io import read_json
@@ -255,6 +288,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         check_figure_name(files["--map"], "--map")
     if "--html" in files:
         check_html_name(files["--html"], "--html")
+    if args.assist is not None:
+        for flag in ("--map", "--html"):
+            if flag in files:
+                raise UsageError(f"{flag} draws a parking sweep; an assist sweep (--assist) writes --out and --json")
+        if args.keep_maneuvers is not None:
+            raise UsageError("--keep-maneuvers keeps parking maneuvers; an assist sweep (--assist) writes --out")
     keep = None if args.keep_maneuvers is None else check_output_folder(args.keep_maneuvers, "--keep-maneuvers")
     scenario = scenario_from_arg(args.scenario) if args.scenario is not None else None
     config = build_config(
@@ -267,6 +306,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         scenario=scenario,
     )
     executor = sweep_executor(args.workers, args.dask)
+    if args.assist is not None:
+        return _assist_sweep(args, config, files, executor)
     render = None
     if keep is not None:
         from ..viz.viewer import render_viewer
