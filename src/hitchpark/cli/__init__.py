@@ -24,6 +24,7 @@ from .arguments import (
 from .commands import (
     IK_STUDY_FILES,
     _cmd_assist,
+    _cmd_drive,
     _cmd_ik_study,
     _cmd_park,
     _cmd_plot,
@@ -129,6 +130,28 @@ def build_parser() -> argparse.ArgumentParser:
         help="record the NMPC's predicted trailer path at each row in maneuver.json (the viewer draws it)",
     )
     p.set_defaults(func=_cmd_park)
+
+    p = sub.add_parser(
+        "drive",
+        help="drive the knob assist live in a browser page",
+        description="Serve a page on 127.0.0.1 where you back the scenario's combination with the knob assist: "
+        "turn the knob with the mouse wheel, a drag or the arrow keys, hold the up arrow (or W) to back up, Esc to "
+        "stop. The page shows the rig at the plant's rate, the curvature asked and got, the hitch against its "
+        "limit and each override. When the car stands after Esc, DIR gets maneuver.json, trajectory.csv and "
+        "maneuver.html (hitchpark view opens the JSON) and the command ends.",
+    )
+    p.add_argument(
+        "--scenario", required=True, type=Path, metavar="FILE.toml|NAME", help="scenario file or built-in name"
+    )
+    p.add_argument("--out", required=True, metavar="DIR", help="where the drive is saved")
+    p.add_argument("--port", type=int, default=8765, metavar="P", help="port to listen on (default 8765; 0: any)")
+    p.add_argument("--host", default="127.0.0.1", metavar="H", help="address to listen on (default 127.0.0.1)")
+    p.add_argument(
+        "--allow-remote", action="store_true", help="let --host be an address other machines reach (no login!)"
+    )
+    _add_plant_option(p, "(default: the scenario's [plant], else the realistic car)")
+    p.add_argument("--max-time", type=float, default=600.0, metavar="S", help="longest drive [s] (default 600)")
+    p.set_defaults(func=_cmd_drive)
 
     p = sub.add_parser(
         "assist",

@@ -220,6 +220,35 @@ def _assist_sweep(args: argparse.Namespace, config: Any, files: dict[str, Path],
     return 0
 
 
+def _cmd_drive(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from ..io import StagedFolder
+    from ..viz.drive import check_host, save_into, serve_drive
+
+    check_host(args.host, args.allow_remote)
+    staged = StagedFolder(args.out, ("maneuver.json", "trajectory.csv", "maneuver.html"), "--out")
+    sc = scenario_from_arg(args.scenario)
+    plant = _plant(args)
+    if plant is not None:
+        sc = replace(sc, plant=plant)
+    with staged as stage:
+        result = serve_drive(
+            sc,
+            save_into(stage),
+            host=args.host,
+            port=args.port,
+            allow_remote=args.allow_remote,
+            max_time=_finite("--max-time", args.max_time),
+            on_ready=lambda url: print(f"drive at {url} (Esc on the page stops the car and saves the drive)"),
+        )
+    print(
+        f"{result.reason} after {result.duration:.1f} s: max |hitch| {result.max_abs_hitch_deg:.1f} deg; "
+        f"maneuver: {staged.target / 'maneuver.json'}"
+    )
+    return 0 if result.success else 1
+
+
 def _read_maneuver(path: Path) -> ManeuverResult:
     """A saved maneuver.json, or a one-line :class:`UsageError` saying why it is not one."""
     from ..io import read_json

@@ -32,10 +32,18 @@ from ..model.state import Pose, State, check_goal, check_state
 from ..model.vehicle import VehicleTrailer, check_vehicle
 from .judge import stage_result, verdict
 from .loop import ClosedLoop, run_stage
-from .result import ASSIST_COLUMNS, ManeuverResult, Outcome
+from .result import ASSIST_COLUMNS, ManeuverResult, Outcome, StageResult
 from .settings import ManeuverSettings
 
-__all__ = ["PROFILE_COLUMNS", "AssistStage", "KnobProfile", "drive_assisted", "load_knob_profile"]
+__all__ = [
+    "PROFILE_COLUMNS",
+    "AssistStage",
+    "KnobProfile",
+    "assisted_loop",
+    "assisted_result",
+    "drive_assisted",
+    "load_knob_profile",
+]
 
 #: The columns of a knob profile, in this order.
 PROFILE_COLUMNS = ("t", "knob", "speed_request")
@@ -206,28 +214,49 @@ def drive_assisted(
             min_clearance_m=settings.success.min_clearance_m,
             margin_m=settings.process.guard_margin_m,
         )
-    car = Plant(plant, vehicle, start, assist.dt)
-    max_time = profile.duration + 60.0
-    loop = ClosedLoop(car, goal, plant.delay_steps, max_time, vehicle.max_steer_rate, vehicle.max_accel)
-    loop.extras = {c: [] for c in ASSIST_COLUMNS}
+    loop = assisted_loop(vehicle, start, goal, plant, assist.dt, profile.duration + 60.0)
     stage = AssistStage(KnobAssist(vehicle, assist, scene), profile)
     ended = run_stage(loop, 0, stage)
-    stages = (stage_result(stage, ended, loop, 0),)
     if loop.outcome is None:
         loop.outcome = Outcome.STOPPED_FOR_OBSTACLE if stage.held else Outcome.DRIVEN
+    return assisted_result(loop, stage_result(stage, ended, loop, 0), vehicle, start, settings, plant, scene, name)
+
+
+def assisted_loop(
+    vehicle: VehicleTrailer, start: State, goal: Pose, plant: PlantSettings, dt: float, max_time: float
+) -> ClosedLoop:
+    """The closed loop of an assisted drive: a plant from ``start``, recording the assist's columns."""
+    car = Plant(plant, vehicle, start, dt)
+    loop = ClosedLoop(car, goal, plant.delay_steps, max_time, vehicle.max_steer_rate, vehicle.max_accel)
+    loop.extras = {c: [] for c in ASSIST_COLUMNS}
+    return loop
+
+
+def assisted_result(
+    loop: ClosedLoop,
+    stage: StageResult,
+    vehicle: VehicleTrailer,
+    start: State,
+    settings: ManeuverSettings,
+    plant: PlantSettings,
+    scene: Scene,
+    name: str,
+) -> ManeuverResult:
+    """The result of an assisted drive whose loop has ended (its ``outcome`` set): judged on the true motion."""
     loop.final_row(0)
     traj = loop.trajectory()
     _, outcome, detail, swept = verdict(loop, traj, scene, settings.success)
-    real = car.vehicle
+    real = loop.plant.vehicle
     within = bool(
         np.max(np.abs(traj["front_steer"])) <= real.max_steer + 1e-12
         and np.max(np.abs(traj["hitch"])) <= real.max_hitch
     )
-    success = outcome in (Outcome.DRIVEN, Outcome.STOPPED_FOR_OBSTACLE) and within
-    if outcome in (Outcome.DRIVEN, Outcome.STOPPED_FOR_OBSTACLE) and not within:
+    ends = (Outcome.DRIVEN, Outcome.STOPPED_FOR_OBSTACLE, Outcome.STOPPED_BY_DRIVER)
+    success = outcome in ends and within
+    if outcome in ends and not within:
         outcome = Outcome.LIMITS_EXCEEDED
     result = ManeuverResult(
-        vehicle, start, goal, settings, success, outcome.value, stages, traj, name, plant, detail, scene
+        vehicle, start, loop.goal, settings, success, outcome.value, (stage,), traj, name, plant, detail, scene
     )
     if swept is not None:
         result.__dict__["swept"] = swept

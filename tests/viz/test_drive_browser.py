@@ -1,0 +1,83 @@
+"""``hitchpark drive`` in a real headless browser (Chromium): a scripted person holds full left knob for 20 s of
+the car's time from a straight start, then presses Esc.
+
+Skipped, saying why, where no browser is found (see :mod:`browser`) or aiohttp (the ``drive`` extra) is missing.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import queue
+import threading
+
+import pytest
+from browser import launched
+
+from hitchpark.maneuver.result import ManeuverResult
+from hitchpark.maneuver.scenario import Scenario
+from hitchpark.model import State
+from hitchpark.viz.drive import save_into, serve_drive
+from hitchpark.viz.viewer import write_viewer
+
+pytest.importorskip("aiohttp", reason="hitchpark drive needs aiohttp: pip install -e '.[drive]'")
+
+
+@pytest.mark.slow
+def test_a_person_holds_full_left_knob_and_stops_with_escape(tmp_path):
+    scenario = Scenario("straight", State(0.0, 0.0, 0.0, 0.0))
+    ready: queue.Queue[str] = queue.Queue()
+    outcome: dict[str, object] = {}
+
+    def serve() -> None:
+        outcome["result"] = serve_drive(
+            scenario, save_into(tmp_path), port=0, time_scale=4.0, max_time=120.0, on_ready=ready.put
+        )
+
+    server = threading.Thread(target=serve, daemon=True)
+    server.start()
+    url = ready.get(timeout=60)
+    assert url.startswith("http://127.0.0.1:")
+    with launched() as browser:
+        page = browser.new_page()
+        errors: list[str] = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+        page.route("**/*", lambda r: r.continue_() if r.request.url.startswith(url) else r.abort())
+        page.goto(url)
+        page.wait_for_function("() => window.hitchDrive && window.hitchDrive.ticks > 0", timeout=30_000)
+        for _ in range(12):
+            page.keyboard.press("ArrowLeft")
+        page.keyboard.down("ArrowUp")
+        page.wait_for_function("() => window.hitchDrive.last.t >= 20.0", timeout=60_000)
+        drive = page.evaluate("window.hitchDrive")
+        assert drive["knob"] == 1.0 and drive["last"]["knob"] == 1.0
+        # The rig turned: the trailer's heading swung well round, the hitch stayed inside its limit.
+        assert abs(drive["last"]["state"][2]) > math.radians(60.0)
+        assert 20.0 < drive["maxAbsHitch"] < 70.0
+        # An override was shown as it happened (the knob flicked to full lock is followed at a rate, at least).
+        assert drive["overridesSeen"] and page.locator("#overrides li").count() >= 1
+        moving = abs(drive["last"]["speed"])
+        assert moving > 0.3
+        page.keyboard.press("Escape")
+        page.wait_for_function("() => window.hitchDrive.last.stopping === true", timeout=10_000)
+        drive = page.evaluate("window.hitchDrive")
+        # Within one tick of the Esc (one more may be in flight): the request is zero and the car brakes.
+        assert drive["ticks"] - drive["stopSentAt"] <= 2
+        assert drive["last"]["speed_request"] == 0.0
+        page.wait_for_function("() => window.hitchDrive.saved !== null", timeout=30_000)
+        assert page.locator("#status").inner_text().startswith("ended: stopped by driver")
+        page.keyboard.up("ArrowUp")
+        assert not errors, errors
+    server.join(timeout=30)
+    result = outcome["result"]
+    assert isinstance(result, ManeuverResult) and result.reason == "stopped_by_driver" and result.success
+    saved = ManeuverResult.from_dict(json.loads((tmp_path / "maneuver.json").read_text()))
+    assert saved.reason == "stopped_by_driver" and saved.max_abs_hitch_deg < 70.0
+    assert (tmp_path / "maneuver.html").exists()
+    assert write_viewer(saved, tmp_path / "again.html").stat().st_size > 0  # what `hitchpark view` does
+    # After Esc the car stood within the braking time: its speed at the acceleration limit, plus the lag.
+    t, v, stopping = saved.trajectory["t"], saved.trajectory["rear_speed"], saved.trajectory["speed_request"]
+    first = next(i for i in range(len(t)) if t[i] > 20.0 and stopping[i] == 0.0)
+    still = next(i for i in range(first, len(t)) if v[i] == 0.0)
+    assert t[still] - t[first] <= moving / saved.vehicle.max_accel + 0.3
