@@ -14,6 +14,7 @@ outputs, multipliers included.
 from __future__ import annotations
 
 import hashlib
+import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -24,7 +25,7 @@ from ..native import build_library, cache_key, load_cached, resolved_compiler
 from .generated import GeneratedNLP
 from .transcription import MultipleShooting, first_step_weight
 
-__all__ = ["RICCATI_SOURCE", "riccati_functions", "riccati_nlpsol"]
+__all__ = ["RICCATI_SOURCE", "checked_options", "riccati_functions", "riccati_nlpsol", "riccati_standalone"]
 
 #: The solver's C (the method, at its top).
 RICCATI_SOURCE = Path(__file__).with_name("riccati_ipm.c")
@@ -147,13 +148,9 @@ def _config(transcription: Any, functions: Mapping[str, ca.Function], options: M
     return "\n" + "".join(f"#define {k} {v}\n" for k, v in lines.items())
 
 
-def riccati_nlpsol(
-    name: str, transcription: Any, options: Mapping[str, Any] | None = None, dual_floor: float = 1e-9
-) -> GeneratedNLP | None:
-    """The solver of ``transcription.nlp`` as a compiled library (from the cache when it can), or None where
-    it cannot be built: no C compiler, no transcription or one it does not take (:func:`riccati_functions`).
-    Raises RuntimeError on an option it does not take (:data:`DEFAULTS` names them) or a value out of range.
-    """
+def checked_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The solver's options, :data:`DEFAULTS` under ``options``; RuntimeError on an option it does not take or a
+    value out of range."""
     settings = {**DEFAULTS, **(options or {})}
     unknown = sorted(set(settings) - set(DEFAULTS))
     if unknown:
@@ -169,6 +166,17 @@ def riccati_nlpsol(
     iterations = settings["max_iter"]
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise RuntimeError(f"option 'max_iter' must be a whole number of at least 1, got {iterations!r}")
+    return settings
+
+
+def riccati_nlpsol(
+    name: str, transcription: Any, options: Mapping[str, Any] | None = None, dual_floor: float = 1e-9
+) -> GeneratedNLP | None:
+    """The solver of ``transcription.nlp`` as a compiled library (from the cache when it can), or None where
+    it cannot be built: no C compiler, no transcription or one it does not take (:func:`riccati_functions`).
+    Raises RuntimeError on an option it does not take (:data:`DEFAULTS` names them) or a value out of range.
+    """
+    settings = checked_options(options)
     if transcription is None:
         return None
     compiler = resolved_compiler()
@@ -187,3 +195,30 @@ def riccati_nlpsol(
     key = cache_key("riccati", nlp, settings, kind=kind)
     sizes = (int(nlp["x"].numel()), int(nlp["p"].numel()), int(nlp["g"].numel()))
     return load_cached(name, key, build, lambda library: GeneratedNLP(library, name, *sizes, dual_floor))
+
+
+def riccati_standalone(
+    transcription: Any, prefix: str, options: Mapping[str, Any] | None = None, extra: Mapping[str, ca.Function] | None = None
+) -> tuple[str, str] | None:
+    """The solver's C for a build of its own (``hitchpark export``): the definitions :data:`RICCATI_SOURCE` is
+    written against (``#define`` lines, sized for ``extra`` too: more functions the caller's C calls with the
+    solver's work arrays, keyed by the macro that names them) and one C file of the stage functions and
+    ``extra``, as CasADi writes them, each function's unused arguments marked used (it then compiles without
+    a warning). None where the transcription is not one the solver takes (:func:`riccati_functions`).
+    """
+    settings = checked_options(options)
+    functions = riccati_functions(transcription, prefix)
+    if functions is None:
+        return None
+    every = {**functions, **(extra or {})}
+    generator = ca.CodeGenerator(f"{prefix}functions.c", {"main": False, "with_header": False})
+    for function in every.values():
+        generator.add(function)
+    code = generator.dump()
+    code = re.sub(
+        r"(\(const casadi_real\*\* arg, casadi_real\*\* res, casadi_int\* iw, casadi_real\* w, int mem\) \{\n)",
+        r"\1  (void) arg; (void) res; (void) iw; (void) w; (void) mem;\n",
+        code,
+    )
+    code = re.sub(r"(_release\(int mem\) \{\n)", r"\1  (void) mem;\n", code)
+    return _config(transcription, every, settings), code

@@ -209,7 +209,11 @@ static void hp_slack_step(const struct hp_stage* s, const real* dw, const real* 
   int i, j;
   for (i = 0; i < HP_NR; ++i) {
     real jd = 0.0;
-    if (!s->on[i] && !s->on[HP_NR + i]) { out[i] = out[HP_NR + i] = 0.0; continue; }
+    if (!s->on[i] && !s->on[HP_NR + i]) {
+      out[i] = 0.0;
+      out[HP_NR + i] = 0.0;
+      continue;
+    }
     for (j = 0; j < HP_NX; ++j) jd += s->J[i + HP_NR * j] * dw[j];
     out[i] = s->on[i] ? jd + r[i] : 0.0;
     out[HP_NR + i] = s->on[HP_NR + i] ? -jd + r[HP_NR + i] : 0.0;
