@@ -36,6 +36,7 @@ from ..model.state import Pose, check_goal
 from ..model.vehicle import VehicleTrailer
 from ..native import resolved_compiler
 from ..ocp.settings import NMPCSettings
+from ..solvers.registry import takes_free_initial
 from .export import ExportSpec, copy_package, package_files
 
 __all__ = ["ExportedNMPC", "SilReport", "build_package", "run_sil", "sil_settings"]
@@ -327,12 +328,17 @@ def run_sil(
     nmpc: NMPCSettings | None = None,
     controller: FullNMPC | None = None,
     scratch: Path | None = None,
+    library: Path | None = None,
 ) -> SilReport:
     """Park ``scenario`` with the exported controller and with the in-process one, and compare.
 
     ``plant``: the car driven (default: the scenario's). ``nmpc``: the NMPC settings (default: :func:`sil_settings`'s).
     ``controller``: a ready in-process controller of those settings to reuse. ``scratch``: where to build (default: a
-    temporary folder, removed after).
+    temporary folder, removed after). ``library``: a build of this vehicle's and these settings' package to use
+    (:func:`build_package`) instead of building one.
+
+    Raises :class:`InputError` where the in-process controller would not run hitchpark's compiled solver
+    (``HITCHPARK_JIT=0``, no compiler): there is then nothing to compare the C with.
     """
     settings = sil_settings(scenario.settings, nmpc)
     plant = plant or scenario.plant
@@ -342,12 +348,14 @@ def run_sil(
     files = package_files(spec)
     bound = int(next(line for line in files["include/hitchpark_nmpc.h"].splitlines() if "WORKSPACE_BYTES " in line)
                 .split()[-1])  # fmt: skip
-    with tempfile.TemporaryDirectory(dir=scratch) as folder:
-        library = build_package(files, Path(folder) / "package")
-        exported = ExportedNMPC(library, scenario.vehicle, settings.nmpc)
-        library_bytes = library.stat().st_size
-        c_result = park(scenario.vehicle, scenario.start, scenario.goal, settings, scenario.name, exported, plant)
     in_process = controller or FullNMPC(scenario.vehicle, settings.nmpc)
+    if not takes_free_initial(in_process.solver):
+        raise InputError("the in-process controller does not run the compiled riccati_c here (HITCHPARK_JIT=0?)")
+    with tempfile.TemporaryDirectory(dir=scratch) as folder:
+        built = library or build_package(files, Path(folder) / "package")
+        exported = ExportedNMPC(built, scenario.vehicle, settings.nmpc)
+        library_bytes = built.stat().st_size
+        c_result = park(scenario.vehicle, scenario.start, scenario.goal, settings, scenario.name, exported, plant)
     py_result = park(scenario.vehicle, scenario.start, scenario.goal, settings, scenario.name, in_process, plant)
     py_ms = _column(py_result, "solve_ms")
     py_ms = py_ms[np.isfinite(py_ms)]

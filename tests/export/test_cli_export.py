@@ -1,0 +1,51 @@
+"""``hitchpark export`` and ``hitchpark sil`` on the command line: what they write, and bad input refused in one line."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from hitchpark.cli import EXIT_BAD_INPUT, main
+
+
+def test_export_writes_the_package_and_refuses_to_overwrite_a_folder(tmp_path, capsys):
+    out = tmp_path / "pkg"
+    assert main(["export", "--out", str(out), "--scenario", "parallel"]) == 0
+    assert (out / "include" / "hitchpark_nmpc.h").is_file() and (out / "Makefile").is_file()
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["settings"]["example"]["scenario"] == "parallel"
+    assert not [p for p in out.iterdir() if p.name.startswith(".hitchpark-staging")]
+    capsys.readouterr()
+    assert main(["export", "--out", str(out)]) == EXIT_BAD_INPUT
+    assert "not empty" in capsys.readouterr().err
+    (out / "mine.txt").write_text("keep me")
+    assert main(["export", "--out", str(out), "--force"]) == 0
+    assert (out / "mine.txt").read_text() == "keep me"
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--obstacles"], "obstacle OCP is not exported"),
+        (["--scenario", "nosuch"], "nosuch"),
+        (["--settings", "PAPER"], "nmpc.kind 'full'"),
+        (["--settings", "SQP"], "riccati_c"),
+    ],
+)
+def test_export_refuses_bad_input_in_one_line(args, message, tmp_path, capsys):
+    (tmp_path / "paper.toml").write_text('[nmpc]\nkind = "paper"\n')
+    (tmp_path / "sqp.toml").write_text('[nmpc]\nsolver = "sqp"\n')
+    names = {"PAPER": str(tmp_path / "paper.toml"), "SQP": str(tmp_path / "sqp.toml")}
+    args = [names.get(a, a) for a in args]
+    assert main(["export", "--out", str(tmp_path / "pkg"), *args]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "pkg").exists() or not any((tmp_path / "pkg").iterdir())
+
+
+def test_sil_refuses_bad_input_in_one_line(tmp_path, capsys):
+    assert main(["sil", "--scenario", "driveway", "--json", str(tmp_path / "s.json")]) == EXIT_BAD_INPUT
+    assert "open space" in capsys.readouterr().err
+    assert main(["sil", "--scenario", "nosuch", "--json", str(tmp_path / "s.json")]) == EXIT_BAD_INPUT
+    assert not (tmp_path / "s.json").exists()

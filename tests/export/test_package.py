@@ -1,0 +1,167 @@
+"""``hitchpark export``'s package: its files, a static check of its C, builds with gcc and clang, the C API's answers
+to bad input, two controllers side by side, and the example against ``park``."""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import json
+import math
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hitchpark.app.export import PACKAGE_FILES, copy_package
+from hitchpark.app.sil import ExportedNMPC, _Command, _Measurement, _Pose, _Status, sil_settings
+from hitchpark.maneuver.process import park
+from hitchpark.maneuver.scenario import builtin_scenario
+from hitchpark.model.plant import Command, Measurement
+from hitchpark.model.state import Pose, State
+from hitchpark.solvers.riccati import RICCATI_SOURCE
+
+WARNINGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2", "-ffp-contract=off")
+
+
+def test_the_package_holds_its_files_and_a_manifest_of_them(random_files):
+    assert sorted(random_files) == sorted(PACKAGE_FILES)
+    manifest = json.loads(random_files["manifest.json"])
+    assert manifest["format"] == "hitchpark-export/1"
+    assert manifest["settings"]["nmpc"]["kind"] == "full"
+    for name, digest in manifest["sha256"].items():
+        assert hashlib.sha256(random_files[name].encode()).hexdigest() == digest
+    # the solver is the in-process route's own file, byte for byte
+    assert random_files["src/riccati_ipm.inc"] == RICCATI_SOURCE.read_text(encoding="utf-8")
+    assert f"#define HITCHPARK_NMPC_WORKSPACE_BYTES {manifest['workspace_bytes']}" in random_files[
+        "include/hitchpark_nmpc.h"
+    ]
+
+
+def _code(text: str) -> str:
+    """C without its comments and string literals."""
+    text = re.sub(r"/\*.*?\*/", " ", text, flags=re.S)
+    text = re.sub(r"//[^\n]*", " ", text)
+    return re.sub(r'"(\\.|[^"\\])*"', '""', text)
+
+
+def test_the_sources_allocate_nothing_print_nothing_and_keep_no_mutable_state(random_files):
+    sources = {k: v for k, v in random_files.items() if k.startswith(("src/", "include/"))}
+    forbidden = re.compile(r"\b(malloc|calloc|realloc|free|printf|fprintf|puts|fopen|fwrite|exit|abort)\s*\(")
+    for name, text in sources.items():
+        code = _code(text)
+        assert not forbidden.search(code), (name, forbidden.search(code))
+        assert "<stdio.h>" not in code and "<stdlib.h>" not in code, name
+        assert "_Thread_local" not in code and "thread_local" not in code, name
+        # a file-scope (or function-scope) static that is not const: a variable, where a function has '('
+        for line in code.splitlines():
+            stripped = line.strip()
+            if stripped.startswith("static ") and "const" not in stripped.split("=")[0]:
+                assert "(" in stripped.split("=")[0], (name, stripped)
+
+
+def _build(compiler: str, folder: Path, *extra: str) -> subprocess.CompletedProcess[str]:
+    sources = [folder / "src" / "hitchpark_nmpc.c", folder / "src" / "hitchpark_nmpc_functions.c"]
+    example = [folder / "examples" / "main.c", folder / "examples" / "example_plant.c"]
+    command = [compiler, *WARNINGS, *extra, f"-I{folder / 'include'}", *map(str, sources + example)]
+    return subprocess.run([*command, "-lm", "-o", str(folder / "example")], capture_output=True, text=True)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["gcc", "clang"])
+def test_the_package_builds_without_a_warning(name, random_files, tmp_path, c_compiler):
+    compiler = shutil.which(name)
+    if compiler is None:
+        pytest.skip(f"no {name} on this machine")
+    copy_package(random_files, tmp_path / "pkg")
+    done = _build(compiler, tmp_path / "pkg")
+    assert done.returncode == 0 and not done.stderr.strip(), done.stderr
+
+
+def _api(library: Path):
+    nmpc = ExportedNMPC(library, builtin_scenario("random").vehicle, sil_settings(builtin_scenario("random").settings).nmpc)
+    return nmpc, nmpc._lib
+
+
+def _step(lib, handle, m, in_flight=(), g=None):
+    g = g or _Pose(0.0, 0.0, 0.0)
+    commands = (_Command * max(1, len(in_flight)))(*in_flight)
+    out, status = _Command(), _Status()
+    code = lib.hitchpark_nmpc_step(handle, m, g, commands, len(in_flight), out, ctypes.byref(status))
+    return code, (out.rear_speed, out.front_steer), status
+
+
+def test_bad_input_gives_its_error_code_and_a_stop_and_leaves_the_workspace_sound(library):
+    nmpc, lib = _api(library)
+    good = _Measurement(8.0, 1.0, 0.2, 0.1, 0.05, 0.0)
+    code, first, status = _step(lib, nmpc._handle, good)
+    assert code == 0 and status.ok and status.converged and status.iterations > 0 and status.solve_time_ns > 0
+    held = first[1]
+    cases = {
+        3: _Measurement(math.nan, 1.0, 0.2, 0.1, 0.05, 0.0),  # NaN measurement
+        4: _Measurement(8.0, 1.0, 0.2, 1.5, 0.05, 0.0),  # the hitch past max_hitch
+    }
+    for expected, m in cases.items():
+        code, command, status = _step(lib, nmpc._handle, m)
+        assert code == expected == status.error and not status.ok and status.stop
+        assert command == (0.0, held)  # a stop, the wheels held
+        assert status.message
+    out, status = _Command(), _Status()
+    assert lib.hitchpark_nmpc_step(nmpc._handle, None, _Pose(), None, 0, out, ctypes.byref(status)) == 1
+    assert (out.rear_speed, out.front_steer) == (0.0, held)
+    assert lib.hitchpark_nmpc_step(None, good, _Pose(), None, 0, out, ctypes.byref(status)) == 1
+    assert lib.hitchpark_nmpc_step(nmpc._handle, good, _Pose(), None, 3, out, ctypes.byref(status)) == 1
+    assert lib.hitchpark_nmpc_step(nmpc._handle, good, _Pose(), None, -1, out, ctypes.byref(status)) == 9
+    assert lib.hitchpark_nmpc_step(nmpc._handle, good, _Pose(math.inf, 0, 0), None, 0, out, None) == 9
+    junk = (ctypes.c_double * 8)()
+    assert lib.hitchpark_nmpc_step(junk, good, _Pose(), None, 0, out, ctypes.byref(status)) == 2
+    assert lib.hitchpark_nmpc_init(junk, 8) is None  # too small
+    # the workspace is sound: after a reset, the same answer as a fresh controller's
+    lib.hitchpark_nmpc_reset(nmpc._handle, 0.05)
+    fresh, _ = _api(library)
+    lib.hitchpark_nmpc_reset(fresh._handle, 0.05)
+    assert _step(lib, nmpc._handle, good)[1] == _step(lib, fresh._handle, good)[1]
+
+
+def test_two_controllers_run_side_by_side(library):
+    one, lib = _api(library)
+    two, _ = _api(library)
+    alone, _ = _api(library)
+    m = [_Measurement(9.0 - 0.1 * k, 1.0, 0.3, 0.1, 0.0, -0.1 * min(k, 5)) for k in range(6)]
+    other = _Measurement(6.0, -2.0, -0.4, -0.2, 0.1, 0.0)
+    answers = []
+    for k in range(6):
+        answers.append(_step(lib, one._handle, m[k])[1])
+        _step(lib, two._handle, other)  # the other controller between every step
+    assert answers == [_step(lib, alone._handle, m[k])[1] for k in range(6)]
+
+
+def test_the_python_face_of_the_library_refuses_what_it_cannot_do(library):
+    nmpc, _ = _api(library)
+    with pytest.raises(ValueError, match="tracks no path"):
+        nmpc.follow(object())
+    step = nmpc.act(Measurement(0.0, State(8.0, 1.0, 0.2, 1.5), 0.0, 0.0), Pose(), (Command(0.0, 0.0),))
+    assert not step.ok and step.stop and step.status == "hitch angle beyond max_hitch"
+
+
+@pytest.mark.slow
+def test_the_example_parks_from_random_as_park_does(random_files, compiled_in_process, tmp_path, c_compiler):
+    compiler = c_compiler
+    folder = tmp_path / "pkg"
+    copy_package(random_files, folder)
+    done = _build(compiler, folder)
+    assert done.returncode == 0, done.stderr
+    run = subprocess.run([str(folder / "example")], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr  # parked within 5 cm
+    rows = np.array([[float(v) for v in line.split(",")] for line in run.stdout.splitlines()[1:]])
+    sc = builtin_scenario("random")
+    result = park(sc.vehicle, sc.start, sc.goal, sil_settings(sc.settings), sc.name, plant=sc.plant)
+    assert len(result.stages) == 1  # one reverse stage: the example's whole maneuver
+    traj = result.trajectory
+    assert len(rows) == len(traj["t"])
+    columns = ("t", "x_trailer", "y_trailer", "yaw_trailer", "hitch", "front_steer", "rear_speed")
+    for i, name in enumerate((*columns, "front_steer_cmd", "rear_speed_cmd")):
+        np.testing.assert_allclose(rows[:, i], np.asarray(traj[name], dtype=float), rtol=0, atol=1e-9, err_msg=name)
+    assert math.hypot(rows[-1, 1] - traj["x_trailer"][-1], rows[-1, 2] - traj["y_trailer"][-1]) <= 1e-6
