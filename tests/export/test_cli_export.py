@@ -1,4 +1,4 @@
-"""``hitchpark export`` and ``hitchpark sil`` on the command line: what they write, and bad input refused in one line."""
+"""``hitchpark export`` and ``sil`` on the command line: what they write, and bad input refused in one line."""
 
 from __future__ import annotations
 

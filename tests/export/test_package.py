@@ -35,9 +35,10 @@ def test_the_package_holds_its_files_and_a_manifest_of_them(random_files):
         assert hashlib.sha256(random_files[name].encode()).hexdigest() == digest
     # the solver is the in-process route's own file, byte for byte
     assert random_files["src/riccati_ipm.inc"] == RICCATI_SOURCE.read_text(encoding="utf-8")
-    assert f"#define HITCHPARK_NMPC_WORKSPACE_BYTES {manifest['workspace_bytes']}" in random_files[
-        "include/hitchpark_nmpc.h"
-    ]
+    assert (
+        f"#define HITCHPARK_NMPC_WORKSPACE_BYTES {manifest['workspace_bytes']}"
+        in random_files["include/hitchpark_nmpc.h"]
+    )
 
 
 def _code(text: str) -> str:
@@ -81,7 +82,8 @@ def test_the_package_builds_without_a_warning(name, random_files, tmp_path, c_co
 
 
 def _api(library: Path):
-    nmpc = ExportedNMPC(library, builtin_scenario("random").vehicle, sil_settings(builtin_scenario("random").settings).nmpc)
+    sc = builtin_scenario("random")
+    nmpc = ExportedNMPC(library, sc.vehicle, sil_settings(sc.settings).nmpc)
     return nmpc, nmpc._lib
 
 

@@ -1,4 +1,4 @@
-"""``hitchpark sil``: the exported controller drives the paper's four scenarios as the in-process one does, to the bit."""
+"""``hitchpark sil``: the exported controller drives the paper's four scenarios as the in-process one, to the bit."""
 
 from __future__ import annotations
 

@@ -155,7 +155,7 @@ def package_files(spec: ExportSpec) -> dict[str, str]:
     """Every file of the package, by its path in the package folder."""
     s, v = spec.nmpc, spec.vehicle
     assert s.prediction_dt is not None and s.horizon is not None
-    problem, transcription, extra = _functions(spec)
+    _, transcription, extra = _functions(spec)
     try:
         built = riccati_standalone(transcription, PREFIX, s.solver_options, extra)
     except RuntimeError as exc:
@@ -231,9 +231,10 @@ def _example_files(spec: ExportSpec) -> dict[str, str]:
     generator = ca.CodeGenerator("example_plant.c", {"main": False, "with_header": False})
     generator.add(named)
     code = generator.dump()
-    code = code.replace(
-        "casadi_real* w, int mem) {\n", "casadi_real* w, int mem) {\n  (void) arg; (void) res; (void) iw; (void) w; (void) mem;\n"
-    ).replace("_release(int mem) {\n", "_release(int mem) {\n  (void) mem;\n")
+    used = "  (void) arg; (void) res; (void) iw; (void) w; (void) mem;\n"
+    code = code.replace("casadi_real* w, int mem) {\n", "casadi_real* w, int mem) {\n" + used).replace(
+        "_release(int mem) {\n", "_release(int mem) {\n  (void) mem;\n"
+    )
     v, s = spec.vehicle, spec.nmpc
     values = {
         "EX_START_X": spec.start.x,

@@ -178,8 +178,8 @@ class ExportedNMPC(FullNMPC):
 
     def _prediction(self) -> tuple[np.ndarray, np.ndarray]:
         self._lib.hitchpark_nmpc_prediction(self._handle, self._states, self._plan_u)
-        states = np.frombuffer(self._states, dtype=float).reshape(self._n + 1, 6).copy()
-        return states, np.frombuffer(self._plan_u, dtype=float).reshape(self._n, 2).copy()
+        states = np.array(self._states[:], dtype=float).reshape(self._n + 1, 6)
+        return states, np.array(self._plan_u[:], dtype=float).reshape(self._n, 2)
 
     def initial_steer(self, measurement: Measurement, goal: Pose) -> float | None:
         m, g = self._inputs(measurement, check_goal(goal))

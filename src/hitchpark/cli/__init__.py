@@ -279,7 +279,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="the example's start, goal and plant, and the vehicle (default: random); its [nmpc] if of kind full",
     )
     p.add_argument(
-        "--settings", type=Path, metavar="FILE.toml", help="maneuver settings whose [nmpc] table (kind full) is exported"
+        "--settings",
+        type=Path,
+        metavar="FILE.toml",
+        help="maneuver settings whose [nmpc] table (kind full) is exported",
     )
     p.add_argument("--obstacles", action="store_true", help="the obstacle OCP (not exported yet: refused)")
     p.add_argument("--force", action="store_true", help="replace the package's files in a folder that holds others")

@@ -396,13 +396,14 @@ def _export_spec(args: argparse.Namespace) -> Any:
     from ..maneuver.scenario import builtin_scenario
 
     sc = scenario_from_arg(args.scenario) if args.scenario is not None else builtin_scenario("random")
+    from ..ocp.settings import NMPCSettings
+
     if args.settings is not None:
         nmpc = load_settings(args.settings).nmpc
     else:
-        nmpc = sc.settings.nmpc if sc.settings.nmpc.kind == "full" else None
+        nmpc = sc.settings.nmpc if sc.settings.nmpc.kind == "full" else NMPCSettings()
     vehicle = vehicle_from_args(args, default=sc.vehicle)
-    kwargs = {} if nmpc is None else {"nmpc": nmpc}
-    return ExportSpec(vehicle, start=sc.start, goal=sc.goal, plant=sc.plant, scenario=sc.name, **kwargs)
+    return ExportSpec(vehicle, nmpc, start=sc.start, goal=sc.goal, plant=sc.plant, scenario=sc.name)
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
@@ -415,7 +416,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
     out = write_package(args.out, files, force=args.force)
     header = files["include/hitchpark_nmpc.h"]
     bound = next(line.split()[-1] for line in header.splitlines() if "WORKSPACE_BYTES " in line)
-    print(f"wrote {len(files)} files to {out}: the full-model NMPC, horizon {spec.nmpc.horizon}, workspace {bound} bytes")
+    print(f"wrote {len(files)} files to {out}: the full-model NMPC, horizon {spec.nmpc.horizon}, workspace {bound} B")
     print(f"build: make -C {out}  (or cmake -S {out} -B {out}/build && cmake --build {out}/build)")
     return 0
 

@@ -198,7 +198,10 @@ def riccati_nlpsol(
 
 
 def riccati_standalone(
-    transcription: Any, prefix: str, options: Mapping[str, Any] | None = None, extra: Mapping[str, ca.Function] | None = None
+    transcription: Any,
+    prefix: str,
+    options: Mapping[str, Any] | None = None,
+    extra: Mapping[str, ca.Function] | None = None,
 ) -> tuple[str, str] | None:
     """The solver's C for a build of its own (``hitchpark export``): the definitions :data:`RICCATI_SOURCE` is
     written against (``#define`` lines, sized for ``extra`` too: more functions the caller's C calls with the
@@ -216,7 +219,8 @@ def riccati_standalone(
         generator.add(function)
     code = generator.dump()
     code = re.sub(
-        r"(\(const casadi_real\*\* arg, casadi_real\*\* res, casadi_int\* iw, casadi_real\* w, int mem\) \{\n)",
+        r"(\(const casadi_real\*\* arg, casadi_real\*\* res, casadi_int\* iw, casadi_real\* w, int mem\) "
+        r"\{\n)",
         r"\1  (void) arg; (void) res; (void) iw; (void) w; (void) mem;\n",
         code,
     )
