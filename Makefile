@@ -19,11 +19,11 @@ demo: $(VENV)/.installed
 	$(BIN)/hitchpark ik-study --out $(OUT)/ik_study
 	@echo "demo results in $(OUT)/"
 
-test: $(VENV)/.installed
-	$(BIN)/python -m pytest -q
+test: $(VENV)/.installed   # over every core (pytest-xdist); -n 0 for one process
+	$(BIN)/python -m pytest -q -n auto
 
 test-fast: $(VENV)/.installed   # the inner loop: all but the tests marked slow
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(BIN)/python -m pytest -q -n auto -m "not slow"
 
 lint: $(VENV)/.installed
 	$(BIN)/ruff check src tests
