@@ -102,3 +102,14 @@ def test_turning_towards_the_scene_the_guard_allows_what_stops_in_time(steer, ro
         assert guard.checker.clearances(x[None])[0] >= guard.need - 1e-3
     if steer > 0.0:  # a left turn swings the car's front towards the kerb
         assert got.rear_speed < asked
+
+
+def test_a_controller_that_predicts_keeps_the_bound():
+    """The NMPC's horizon is checked itself, and its speed keeps the bound: along the kerb, two centimetres from
+    its clearance, it is held to what the bound allows where a tracker would go on."""
+    guard = Guard(V, KERB, 0.2, 0.03, 0.1, 1)
+    state = beside_the_kerb(guard, 0.02)
+    along = np.array([[state.x + d, state.y, 0.0, 0.0] for d in (0.0, -0.1, -0.2)])  # goal frame = world
+    got = guard.check(Measurement(0.0, state, 0.0, -1.0), Pose(), step(-1.0, along))
+    assert got.ok and got.rear_speed == pytest.approx(-guard.max_speed(0.02))
+    assert guard.check(Measurement(0.0, state, 0.0, -1.0), Pose(), step(-1.0)).rear_speed == -1.0
