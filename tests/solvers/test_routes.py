@@ -271,6 +271,20 @@ def test_the_edits_of_generated_code_give_up_on_a_casadi_they_were_not_tested_on
     source = "static int casadi_f0(const casadi_real** arg) {}\ncasadi_fatrop_solve(\n"
     assert casadi_patches.link_warm_duals(source) is None
     assert casadi_patches.link_stagewise(source, {}) is None
+    function = "static int f(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {\n"
+    assert casadi_patches.mark_unused_arguments(function) == function
+
+
+def test_the_exported_functions_mark_their_unused_arguments():
+    from hitchpark.solvers import casadi_patches
+
+    function = "static int f(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {\n"
+    release = "void f_release(int mem) {\n"
+    marked = casadi_patches.mark_unused_arguments(function + "}\n" + release + "}\n")
+    assert (
+        marked
+        == function + "  (void) arg; (void) res; (void) iw; (void) w; (void) mem;\n}\n" + release + "  (void) mem;\n}\n"
+    )
 
 
 def test_generated_route_runs_in_process_where_nothing_compiles(tmp_path, monkeypatch):

@@ -9,6 +9,8 @@ the warm start of its multipliers. These depend on how a CasADi version lays out
   (:mod:`.stagewise`) instead of CasADi's, written over the whole horizon.
 - :func:`report_sqp_failure`: the generated sqpmethod returns 1 when its iterations did not converge
   (CasADi 3.8's returns 0 however they end).
+- :func:`mark_unused_arguments`: the stage functions written for ``hitchpark export`` mark the arguments they
+  do not use, so that the package compiles under ``-Wall -Wextra -Werror``.
 
 Each checks the layout it edits and gives up (None, or RuntimeError) where it differs; all of them give up on
 a CasADi whose major.minor is not in :data:`TESTED_CASADI`, the versions the test suite runs on
@@ -29,6 +31,7 @@ __all__ = [
     "casadi_tested",
     "link_stagewise",
     "link_warm_duals",
+    "mark_unused_arguments",
     "report_sqp_failure",
     "sqp_edit_text",
 ]
@@ -176,3 +179,17 @@ def report_sqp_failure(source: str) -> str:
 def sqp_edit_text() -> str:
     """The text of the sqpmethod edit: a library built with it is cached under a key that holds it."""
     return _SQP_CONVERGED.pattern + _SQP_END + _SQP_RETURN
+
+
+def mark_unused_arguments(code: str) -> str:
+    """CasADi's functions ``code`` with each function's arguments, and each release's ``mem``, marked used
+    (``(void) arg;``): CasADi leaves some unused, which ``-Wextra -Werror`` refuses. Unchanged on a CasADi not in
+    :data:`TESTED_CASADI` (the package then builds with warnings)."""
+    if not casadi_tested():
+        return code
+    code = re.sub(
+        r"(\(const casadi_real\*\* arg, casadi_real\*\* res, casadi_int\* iw, casadi_real\* w, int mem\) \{\n)",
+        r"\1  (void) arg; (void) res; (void) iw; (void) w; (void) mem;\n",
+        code,
+    )
+    return re.sub(r"(_release\(int mem\) \{\n)", r"\1  (void) mem;\n", code)

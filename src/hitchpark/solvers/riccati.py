@@ -14,7 +14,6 @@ outputs, multipliers included.
 from __future__ import annotations
 
 import hashlib
-import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -22,6 +21,7 @@ from typing import Any
 import casadi as ca
 
 from ..native import build_library, cache_key, load_cached, resolved_compiler
+from .casadi_patches import mark_unused_arguments
 from .generated import GeneratedNLP
 from .transcription import MultipleShooting, first_step_weight
 
@@ -217,12 +217,4 @@ def riccati_standalone(
     generator = ca.CodeGenerator(f"{prefix}functions.c", {"main": False, "with_header": False})
     for function in every.values():
         generator.add(function)
-    code = generator.dump()
-    code = re.sub(
-        r"(\(const casadi_real\*\* arg, casadi_real\*\* res, casadi_int\* iw, casadi_real\* w, int mem\) "
-        r"\{\n)",
-        r"\1  (void) arg; (void) res; (void) iw; (void) w; (void) mem;\n",
-        code,
-    )
-    code = re.sub(r"(_release\(int mem\) \{\n)", r"\1  (void) mem;\n", code)
-    return _config(transcription, every, settings), code
+    return _config(transcription, every, settings), mark_unused_arguments(generator.dump())
