@@ -25,7 +25,7 @@ pytest.importorskip("aiohttp", reason="hitchpark drive needs aiohttp: pip instal
 
 @pytest.mark.slow
 def test_a_person_holds_full_left_knob_and_stops_with_escape(tmp_path):
-    scenario = Scenario("straight", State(0.0, 0.0, 0.0, 0.0))
+    scenario = Scenario("straight <b>&</b>", State(0.0, 0.0, 0.0, 0.0))  # a name that is not HTML
     ready: queue.Queue[str] = queue.Queue()
     outcome: dict[str, object] = {}
 
@@ -46,6 +46,7 @@ def test_a_person_holds_full_left_knob_and_stops_with_escape(tmp_path):
         page.route("**/*", lambda r: r.continue_() if r.request.url.startswith(url) else r.abort())
         page.goto(url)
         page.wait_for_function("() => window.hitchDrive && window.hitchDrive.ticks > 0", timeout=30_000)
+        assert page.locator("h1").inner_text() == "hitchpark drive: straight <b>&</b>"  # shown as text, not markup
         for _ in range(12):
             page.keyboard.press("ArrowLeft")
         page.keyboard.down("ArrowUp")

@@ -1,12 +1,13 @@
 // hitchpark drive: the live page of the knob assist. The server ticks the car at the plant's rate over a
 // WebSocket; this page sends the knob and the speed key, and draws each tick: the rig among the scene, the
 // curvature asked against the one got, the hitch against its limit, each override as it happens.
-"use strict";
 (function () {
+  "use strict";
+  const { esc } = hitchpark;
   const D = JSON.parse(document.getElementById("hitchpark-data").textContent);
   const app = document.getElementById("app");
   app.innerHTML = `
-    <header><h1>${D.title}</h1><span id="status">connecting</span></header>
+    <header><h1>${esc(D.title)}</h1><span id="status">connecting</span></header>
     <div style="display:flex;flex-direction:row;gap:12px;padding:10px;align-items:flex-start">
       <canvas id="scene" width="640" height="520" style="border:1px solid var(--line);background:#fff"></canvas>
       <section style="min-width:300px">

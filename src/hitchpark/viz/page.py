@@ -1,8 +1,9 @@
 """Self-contained HTML pages: ``page.html`` with a style, a script and JSON data inlined, written whole or not at all.
 
 The template, the style and the scripts are package data of :mod:`hitchpark.viz` (real files, read here): the
-maneuver viewer (``viewer.js``, :mod:`.viewer`) and the sweep's map (``sweep.js``, :mod:`.sweep_html`). A page
-loads nothing: no network, no server, opened from disk.
+maneuver viewer (``viewer.js``, :mod:`.viewer`), the sweep's map (``sweep.js``, :mod:`.sweep_html`) and the live
+page (``drive.js``, :mod:`.drive`), each after ``common.js``, the helpers they share. A page loads nothing: no
+network, no server (but the live page's own), opened from disk.
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ def page(script: str, title: str, data: Any) -> str:
         "{{TITLE}}": html.escape(title),
         "{{STYLE}}": asset("viewer.css"),
         "{{DATA}}": _script_safe(payload),
-        "{{SCRIPT}}": _script_safe(asset(script)),
+        "{{SCRIPT}}": _script_safe(asset("common.js") + "\n" + asset(script)),
     }
     # One pass over the template: a value put in is never searched for the other keys.
     return re.sub(r"\{\{[A-Z]+\}\}", lambda m: parts.get(m.group(0), m.group(0)), asset("page.html"))

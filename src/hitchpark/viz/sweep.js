@@ -17,13 +17,7 @@
   for (const k of Object.keys(counts)) shown["reason:" + k] = true;
   const visible = (i) => (K.success[i] ? shown.parked : shown.failed) && shown["reason:" + outcome(i)];
 
-  const el = (tag, attrs, html) => {
-    const e = document.createElement(tag);
-    for (const [k, v] of Object.entries(attrs || {})) e.setAttribute(k, v);
-    if (html !== undefined) e.innerHTML = html;
-    return e;
-  };
-  const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]);
+  const { el, esc } = hitchpark;
   const app = document.getElementById("app");
   const parked = counts.parked || 0;
   const head = el("header");

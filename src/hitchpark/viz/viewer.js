@@ -13,13 +13,7 @@
     drawn: [], zoom: 1, panX: 0, panY: 0 };
 
   // ------------------------------------------------------------------ the page
-  const el = (tag, attrs, html) => {
-    const e = document.createElement(tag);
-    for (const [k, v] of Object.entries(attrs || {})) e.setAttribute(k, v);
-    if (html !== undefined) e.innerHTML = html;
-    return e;
-  };
-  const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]);
+  const { el, esc } = hitchpark;
   const app = document.getElementById("app");
   const head = el("header");
   head.append(el("h1", {}, esc(D.name || "maneuver")),
