@@ -21,16 +21,14 @@ from .arguments import (
     parse_start,
     vehicle_from_args,
 )
+from .assist import _cmd_assist, _cmd_drive
+from .car import _cmd_export, _cmd_sil
 from .commands import (
     IK_STUDY_FILES,
-    _cmd_assist,
-    _cmd_drive,
-    _cmd_export,
     _cmd_ik_study,
     _cmd_park,
     _cmd_plot,
     _cmd_reproduce,
-    _cmd_sil,
     _cmd_simulate,
     _cmd_sweep,
     _cmd_view,

@@ -155,38 +155,6 @@ def _cmd_park(args: argparse.Namespace) -> int:
     return 0 if result.success else 1
 
 
-def _cmd_assist(args: argparse.Namespace) -> int:
-    from ..app.report import MANEUVER_FILES, save_maneuver
-    from ..assist import OVERRIDES
-    from ..io import StagedFolder
-    from ..maneuver.assisted import drive_assisted, load_knob_profile
-
-    staged = StagedFolder(args.out, MANEUVER_FILES, "--out")  # checks --out before any work
-    sc = scenario_from_arg(args.scenario)
-    profile = load_knob_profile(args.knob)
-    plant = _plant(args) or sc.plant
-    result = drive_assisted(
-        sc.vehicle, sc.start, profile, goal=sc.goal, settings=sc.settings, plant=plant, scene=sc.scene, name=sc.name
-    )
-    plots = not args.no_plots
-    with staged as stage:
-        saved = save_maneuver(result, stage, _renderer(plots, plots))
-        files = {k: staged.target / p.relative_to(stage) for k, p in saved.items()}
-    tr = result.trajectory
-    codes = tr["override"][:-1]
-    dt = float(tr["t"][1] - tr["t"][0]) if len(tr) > 1 else 0.0
-    acted = ", ".join(f"{name} {dt * n:.1f} s" for i, name in enumerate(OVERRIDES) if i and (n := int(sum(codes == i))))
-    clearance = "" if result.min_clearance_m is None else f", least clearance {result.min_clearance_m:.2f} m"
-    print(
-        f"{result.reason}{f' ({result.detail})' if result.detail else ''} after {result.duration:.1f} s: "
-        f"max |hitch| {result.max_abs_hitch_deg:.1f} deg, max |front steer| {result.max_abs_front_steer_deg:.1f} deg"
-        f"{clearance}; overrides: {acted or 'none'}"
-    )
-    for name, path in files.items():
-        print(f"{name}: {path}")
-    return 0 if result.success else 1
-
-
 def _assist_sweep(args: argparse.Namespace, config: Any, files: dict[str, Path], executor: Any) -> int:
     import time
 
@@ -218,35 +186,6 @@ def _assist_sweep(args: argparse.Namespace, config: Any, files: dict[str, Path],
     if "--json" in files:
         print(f"summary: {files['--json']}")
     return 0
-
-
-def _cmd_drive(args: argparse.Namespace) -> int:
-    from dataclasses import replace
-
-    from ..io import StagedFolder
-    from ..viz.drive import check_host, save_into, serve_drive
-
-    check_host(args.host, args.allow_remote)
-    staged = StagedFolder(args.out, ("maneuver.json", "trajectory.csv", "maneuver.html"), "--out")
-    sc = scenario_from_arg(args.scenario)
-    plant = _plant(args)
-    if plant is not None:
-        sc = replace(sc, plant=plant)
-    with staged as stage:
-        result = serve_drive(
-            sc,
-            save_into(stage),
-            host=args.host,
-            port=args.port,
-            allow_remote=args.allow_remote,
-            max_time=_finite("--max-time", args.max_time),
-            on_ready=lambda url: print(f"drive at {url} (Esc on the page stops the car and saves the drive)"),
-        )
-    print(
-        f"{result.reason} after {result.duration:.1f} s: max |hitch| {result.max_abs_hitch_deg:.1f} deg; "
-        f"maneuver: {staged.target / 'maneuver.json'}"
-    )
-    return 0 if result.success else 1
 
 
 def _read_maneuver(path: Path) -> ManeuverResult:
@@ -386,62 +325,3 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     if keep is not None:
         print(f"maneuvers: {keep}/case_NNNN/ (maneuver.json, maneuver.html)")
     return 0
-
-
-def _export_spec(args: argparse.Namespace) -> Any:
-    """The package ``export`` writes: the scenario's start, goal, plant and vehicle (``--vehicle`` over it), the
-    NMPC of ``--settings``'s [nmpc], else the scenario's when it is the full model's, else the defaults."""
-    from ..app.export import ExportSpec
-    from ..app.sweep import load_settings
-    from ..maneuver.scenario import builtin_scenario
-
-    sc = scenario_from_arg(args.scenario) if args.scenario is not None else builtin_scenario("random")
-    from ..ocp.settings import NMPCSettings
-
-    if args.settings is not None:
-        nmpc = load_settings(args.settings).nmpc
-    else:
-        nmpc = sc.settings.nmpc if sc.settings.nmpc.kind == "full" else NMPCSettings()
-    vehicle = vehicle_from_args(args, default=sc.vehicle)
-    return ExportSpec(vehicle, nmpc, start=sc.start, goal=sc.goal, plant=sc.plant, scenario=sc.name)
-
-
-def _cmd_export(args: argparse.Namespace) -> int:
-    from ..app.export import package_files, write_package
-
-    if args.obstacles:
-        raise InputError("--obstacles: the obstacle OCP is not exported yet; export the open-space NMPC without it")
-    spec = _export_spec(args)
-    files = package_files(spec)
-    out = write_package(args.out, files, force=args.force)
-    header = files["include/hitchpark_nmpc.h"]
-    bound = next(line.split()[-1] for line in header.splitlines() if "WORKSPACE_BYTES " in line)
-    print(f"wrote {len(files)} files to {out}: the full-model NMPC, horizon {spec.nmpc.horizon}, workspace {bound} B")
-    print(f"build: make -C {out}  (or cmake -S {out} -B {out}/build && cmake --build {out}/build)")
-    return 0
-
-
-def _cmd_sil(args: argparse.Namespace) -> int:
-    from dataclasses import replace
-
-    from ..app.sil import run_sil
-    from ..io import write_json
-    from ..outputs import check_output_files
-
-    check_output_files({"--json": args.json})
-    sc = scenario_from_arg(args.scenario)
-    plant = _plant(args)
-    if plant is not None:
-        sc = replace(sc, plant=plant)
-    report = run_sil(sc)
-    data = report.to_dict()
-    write_json(args.json, data)
-    c, py = data["exported"], data["in_process"]
-    t = data["c_step_time_ns"]
-    print(f"{sc.name}: exported {c['outcome']} ({c['final_error_m']:.4f} m), in-process {py['outcome']} "
-          f"({py['final_error_m']:.4f} m); largest difference: commands {data['max_command_difference']:.3g}, "
-          f"states {data['max_state_difference']:.3g}")  # fmt: skip
-    print(f"C step: median {t['median'] / 1e3:.1f} us, p99 {t['p99'] / 1e3:.1f} us, max {t['max'] / 1e3:.1f} us "
-          f"({data['c_steps']} steps); workspace {data['workspace_bytes']} bytes; library {data['library_bytes']} "
-          "bytes")  # fmt: skip
-    return 0 if report.same_outcome and data["max_command_difference"] <= 1e-9 else 1

@@ -1,0 +1,68 @@
+"""The commands that take the controller to a car: ``export`` (a C package) and ``sil`` (it, in the loop)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from ..checks import InputError
+from .arguments import _plant, scenario_from_arg, vehicle_from_args
+
+
+def _export_spec(args: argparse.Namespace) -> Any:
+    """The package ``export`` writes: the scenario's start, goal, plant and vehicle (``--vehicle`` over it), the
+    NMPC of ``--settings``'s [nmpc], else the scenario's when it is the full model's, else the defaults."""
+    from ..app.export import ExportSpec
+    from ..app.sweep import load_settings
+    from ..maneuver.scenario import builtin_scenario
+
+    sc = scenario_from_arg(args.scenario) if args.scenario is not None else builtin_scenario("random")
+    from ..ocp.settings import NMPCSettings
+
+    if args.settings is not None:
+        nmpc = load_settings(args.settings).nmpc
+    else:
+        nmpc = sc.settings.nmpc if sc.settings.nmpc.kind == "full" else NMPCSettings()
+    vehicle = vehicle_from_args(args, default=sc.vehicle)
+    return ExportSpec(vehicle, nmpc, start=sc.start, goal=sc.goal, plant=sc.plant, scenario=sc.name)
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from ..app.export import package_files, write_package
+
+    if args.obstacles:
+        raise InputError("--obstacles: the obstacle OCP is not exported yet; export the open-space NMPC without it")
+    spec = _export_spec(args)
+    files = package_files(spec)
+    out = write_package(args.out, files, force=args.force)
+    header = files["include/hitchpark_nmpc.h"]
+    bound = next(line.split()[-1] for line in header.splitlines() if "WORKSPACE_BYTES " in line)
+    print(f"wrote {len(files)} files to {out}: the full-model NMPC, horizon {spec.nmpc.horizon}, workspace {bound} B")
+    print(f"build: make -C {out}  (or cmake -S {out} -B {out}/build && cmake --build {out}/build)")
+    return 0
+
+
+def _cmd_sil(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from ..app.sil import run_sil
+    from ..io import write_json
+    from ..outputs import check_output_files
+
+    check_output_files({"--json": args.json})
+    sc = scenario_from_arg(args.scenario)
+    plant = _plant(args)
+    if plant is not None:
+        sc = replace(sc, plant=plant)
+    report = run_sil(sc)
+    data = report.to_dict()
+    write_json(args.json, data)
+    c, py = data["exported"], data["in_process"]
+    t = data["c_step_time_ns"]
+    print(f"{sc.name}: exported {c['outcome']} ({c['final_error_m']:.4f} m), in-process {py['outcome']} "
+          f"({py['final_error_m']:.4f} m); largest difference: commands {data['max_command_difference']:.3g}, "
+          f"states {data['max_state_difference']:.3g}")  # fmt: skip
+    print(f"C step: median {t['median'] / 1e3:.1f} us, p99 {t['p99'] / 1e3:.1f} us, max {t['max'] / 1e3:.1f} us "
+          f"({data['c_steps']} steps); workspace {data['workspace_bytes']} bytes; library {data['library_bytes']} "
+          "bytes")  # fmt: skip
+    return 0 if report.same_outcome and data["max_command_difference"] <= 1e-9 else 1
