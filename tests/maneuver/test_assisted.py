@@ -67,6 +67,14 @@ def test_a_drive_records_the_knob_and_the_overrides_and_reads_back():
     assert np.max(np.abs(tr["hitch"])) < V.max_hitch
 
 
+def test_the_figures_of_a_drive_leave_out_the_nmpc_that_did_not_drive(tmp_path):
+    from hitchpark.viz.figures import plot_maneuver
+
+    profile = KnobProfile(np.array([0.0, 3.0]), np.array([0.5, 0.5]), np.array([0.8, 0.0]))
+    files = plot_maneuver(drive_assisted(V, STRAIGHT, profile), tmp_path)
+    assert [f.name for f in files] == ["motion.png", "inputs.png"] and not (tmp_path / "nmpc.png").exists()
+
+
 def test_a_drive_at_a_wall_ends_stopped_for_the_obstacle_with_no_collision():
     wall = Scene((Obstacle("wall", ((-9.0, -6.0), (-8.0, -6.0), (-8.0, 6.0), (-9.0, 6.0))),))
     # Backing towards it at 1 m/s for 25 s, weaving a little: 7 m of room behind the trailer's rear.

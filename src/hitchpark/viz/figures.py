@@ -9,7 +9,7 @@
   closest to it, a mark;
 * ``inputs.png`` (Figs. 8e-f, drawn by :mod:`.inputs`): front steer and its rate, rear-axle
   speed and hitch angle against time, commanded, actual and measured where the trajectory has them;
-* ``nmpc.png`` (Figs. 9/11/13/15): per reverse stage, the NMPC cost, the virtual
+* ``nmpc.png`` (Figs. 9/11/13/15), where an NMPC drove: per reverse stage, the NMPC cost, the virtual
   inputs, the trailer position in the parking frame and the trailer orientation error.
 
 Matplotlib is imported only inside the plotting functions.
@@ -379,7 +379,8 @@ def plot_maneuver(
     Returns
     -------
     list of Path
-        ``motion.png``, ``inputs.png`` and ``nmpc.png`` (with the prefix), in that order.
+        ``motion.png``, ``inputs.png`` and ``nmpc.png`` (with the prefix), in that order; no ``nmpc.png`` for a
+        maneuver no NMPC drove (a knob-assisted drive: it would show nothing).
 
     Raises
     ------
@@ -393,8 +394,10 @@ def plot_maneuver(
     use_headless_backend()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    return [
+    files = [
         _save(motion_figure(result, snapshot_every), out / f"{prefix}motion.png", dpi),
         _save(inputs_figure(result), out / f"{prefix}inputs.png", dpi),
-        _save(nmpc_figure(result), out / f"{prefix}nmpc.png", dpi),
     ]
+    if any(st.controller in ("nmpc", "") for st in result.stages):  # "": a file that did not record it
+        files.append(_save(nmpc_figure(result), out / f"{prefix}nmpc.png", dpi))
+    return files
