@@ -16,7 +16,7 @@ from ..control.path_tracking import TrackingSettings
 from ..control.pure_pursuit import PurePursuitSettings
 from ..ocp.settings import NMPCSettings
 from ..planning import PlannerSettings
-from ..planning.search import START_MARGIN_M
+from ..planning.settings import START_MARGIN_M
 
 __all__ = [
     "MAX_MANEUVER_TIME",
@@ -126,7 +126,7 @@ class ManeuverSettings:
     @property
     def start_clearance_m(self) -> float:
         """How far [m] a start among obstacles must be from them to move away: :attr:`guard_clearance_m` and the
-        planner's margin for a start (:data:`~hitchpark.planning.search.START_MARGIN_M`). A sweep's starts keep
+        planner's margin for a start (:data:`~hitchpark.planning.settings.START_MARGIN_M`). A sweep's starts keep
         this much."""
         return self.guard_clearance_m + START_MARGIN_M
 

@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..control.pure_pursuit import forward_steer_limit
-from ..model.collision import MAX_STEP_M, swept_clearance
+from ..model.collision import swept_clearance
 from ..model.scene import Scene
 from ..model.state import Pose, State, goal_frame_position, goal_frame_yaw
 from ..model.vehicle import VehicleTrailer
@@ -23,10 +23,10 @@ from .nodes import Node, distance_to_goal, path_of, stuck_detail
 from .opening import OPENING_FORWARD_M, opening
 from .prepare import scene_bounds
 from .raster import distance_grid
-from .settings import Plan, PlannerSettings, arrived
+from .settings import NEAR_START_MARGIN_M, NEAR_START_STEP_M, START_MARGIN_M, Plan, PlannerSettings, arrived
 from .tree import NEAR_M, TREE_MAX_M, GoalTree, cell_key
 
-__all__ = ["START_MARGIN_M", "Search"]
+__all__ = ["Search"]
 
 #: Cell of the holonomic heuristic's grid [m].
 HEURISTIC_CELL_M = 0.25
@@ -34,18 +34,6 @@ HEURISTIC_CELL_M = 0.25
 #: Dubins shots are tried from the start and from every this many expanded nodes.
 DUBINS_EVERY = 10
 
-
-#: A start within ``start_slack_m`` of ``min_clearance_m`` is planned from keeping its own clearance less this [m]
-#: (the exact swept clearance's bound is low by up to half its sub-step, and 5 mm), at least ``min_clearance_m -
-#: start_slack_m``.
-START_MARGIN_M = MAX_STEP_M / 2 + 0.005
-
-#: From such a start the exact check's sub-steps are this fine [m]: the first motions away from a wall the car
-#: stands by keep little more than the start does, and a bound low by 2.5 cm would refuse them all.
-NEAR_START_STEP_M = 0.01
-
-#: What a path from a start within the slack keeps less than the start [m]: half the fine sub-step, and 5 mm.
-NEAR_START_MARGIN_M = NEAR_START_STEP_M / 2 + 0.005
 
 #: Cap on the nodes of one search (memory bound; ``max_expansions`` ends a search first).
 MAX_NODES = 2_000_000

@@ -9,10 +9,32 @@ from typing import Any
 import numpy as np
 
 from ..checks import Choice, InputError, Integer, Real, check_fields, checked
+from ..model.collision import MAX_STEP_M
 from ..model.state import wrap_angle
 from ..solvers.registry import cold_solver_names
 
-__all__ = ["PATH_COLUMNS", "STATUSES", "Plan", "PlannerSettings", "arrived"]
+__all__ = [
+    "NEAR_START_MARGIN_M",
+    "NEAR_START_STEP_M",
+    "PATH_COLUMNS",
+    "START_MARGIN_M",
+    "STATUSES",
+    "Plan",
+    "PlannerSettings",
+    "arrived",
+]
+
+#: A start within ``start_slack_m`` of ``min_clearance_m`` is planned from keeping its own clearance less this [m]
+#: (the exact swept clearance's bound is low by up to half its sub-step, and 5 mm), at least ``min_clearance_m -
+#: start_slack_m``.
+START_MARGIN_M = MAX_STEP_M / 2 + 0.005
+
+#: From such a start the exact check's sub-steps are this fine [m]: the first motions away from a wall the car
+#: stands by keep little more than the start does, and a bound low by 2.5 cm would refuse them all.
+NEAR_START_STEP_M = 0.01
+
+#: What a path from a start within the slack keeps less than the start [m]: half the fine sub-step, and 5 mm.
+NEAR_START_MARGIN_M = NEAR_START_STEP_M / 2 + 0.005
 
 #: What :attr:`Plan.status` can be: ``planner_timeout`` is the wall-clock safety net (``time_limit_s``), which
 #: no shipped scene or sweep reaches; the search's own budget is a count (``max_expansions``) and ends ``no_path``.
