@@ -167,3 +167,62 @@ def test_the_example_parks_from_random_as_park_does(random_files, compiled_in_pr
     for i, name in enumerate((*columns, "front_steer_cmd", "rear_speed_cmd")):
         np.testing.assert_allclose(rows[:, i], np.asarray(traj[name], dtype=float), rtol=0, atol=1e-9, err_msg=name)
     assert math.hypot(rows[-1, 1] - traj["x_trailer"][-1], rows[-1, 2] - traj["y_trailer"][-1]) <= 1e-6
+
+
+#: What the package may call: libm, and what a C compiler may call in any environment (GCC requires memcpy,
+#: memmove, memset and memcmp even of a freestanding one).
+LIBM = {"sqrt", "sin", "cos", "sincos", "tan", "atan", "atan2", "asin", "acos", "exp", "log", "pow", "fabs", "fmax",
+        "fmin", "fmod", "floor", "ceil", "round", "trunc", "hypot", "copysign", "sinh", "cosh", "tanh", "expm1",
+        "log1p"}  # fmt: skip
+FREESTANDING = {"memcpy", "memmove", "memset", "memcmp"}
+
+
+def _symbols(nm: str, objects: list[Path]) -> tuple[set[str], set[str]]:
+    """The symbols the objects need from elsewhere, and those they define."""
+    needed, defined = set(), set()
+    for obj in objects:
+        for line in subprocess.run([nm, str(obj)], capture_output=True, text=True, check=True).stdout.splitlines():
+            parts = line.split()
+            if len(parts) >= 2 and parts[-2] == "U":
+                needed.add(parts[-1])
+            elif len(parts) == 3 and parts[1] in "TDRBCV":
+                defined.add(parts[2])
+    return needed - defined, defined
+
+
+@pytest.mark.slow
+def test_the_library_needs_nothing_but_libm_and_the_clock_it_names(random_files, tmp_path, c_compiler):
+    nm = shutil.which("nm")
+    if nm is None:
+        pytest.skip("no nm on this machine: the library's symbols are not read")
+    folder = tmp_path / "pkg"
+    copy_package(random_files, folder)
+
+    def compiled(name: str, *flags: str) -> Path:
+        obj = tmp_path / f"{name}{''.join(flags)}.o"
+        command = [c_compiler, *WARNINGS, *flags, f"-I{folder / 'include'}", "-c", str(folder / "src" / name)]
+        done = subprocess.run([*command, "-o", str(obj)], capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
+        return obj
+
+    functions = compiled("hitchpark_nmpc_functions.c")
+    for flags, clock in (((), {"clock_gettime"}), (("-DHITCHPARK_NMPC_NO_CLOCK",), set())):
+        needed, defined = _symbols(nm, [compiled("hitchpark_nmpc.c", *flags), functions])
+        assert "hitchpark_nmpc_step" in defined
+        assert needed - LIBM - FREESTANDING == clock, needed
+
+
+@pytest.mark.slow
+def test_the_example_runs_clean_under_the_address_and_undefined_sanitizers(random_files, tmp_path, c_compiler):
+    probe = tmp_path / "probe.c"
+    probe.write_text("int main(void) { return 0; }\n")
+    sanitize = ["-g", "-O1", "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"]
+    if subprocess.run([c_compiler, *sanitize, str(probe), "-o", str(tmp_path / "probe")]).returncode != 0:
+        pytest.skip(f"{c_compiler} builds no sanitized program on this machine")
+    folder = tmp_path / "pkg"
+    copy_package(random_files, folder)
+    done = _build(c_compiler, folder, *sanitize)
+    assert done.returncode == 0, done.stderr
+    run = subprocess.run([str(folder / "example")], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0 and not run.stderr.strip(), run.stderr[-2000:]  # parked, and nothing reported
+    assert len(run.stdout.splitlines()) > 100
