@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from hitchpark.control.guard import Guard
+from hitchpark.control.guard import ESCAPE_MARGIN_M, Guard
 from hitchpark.control.step import ControlStep
 from hitchpark.model import VehicleTrailer
 from hitchpark.model.kinematics import full_rhs
@@ -113,3 +113,22 @@ def test_a_controller_that_predicts_keeps_the_bound():
     got = guard.check(Measurement(0.0, state, 0.0, -1.0), Pose(), step(-1.0, along))
     assert got.ok and got.rear_speed == pytest.approx(-guard.max_speed(0.02))
     assert guard.check(Measurement(0.0, state, 0.0, -1.0), Pose(), step(-1.0)).rear_speed == -1.0
+
+
+def test_a_stage_that_begins_too_near_keeps_what_it_begins_with_less_the_margin():
+    """A car stopped 1 cm inside the guard's clearance (a stop's overshoot) can drive along the kerb or away
+    from it; it may not come nearer than it began less ESCAPE_MARGIN_M, nor below min_clearance_m."""
+    guard = Guard(V, KERB, 0.2, 0.03, 0.1, 1)
+    inside = beside_the_kerb(guard, -0.01)  # 0.22 m from the kerb: the guard's 0.23 would stop anything
+    m = Measurement(0.0, inside, 0.0, 0.0)
+    assert not guard.check(m, Pose(), step(-0.3)).ok  # before the stage begins: stopped, as before
+    kept = guard.begin(m)
+    assert kept == pytest.approx(guard.need - 0.01 - ESCAPE_MARGIN_M) and guard.floor <= kept < guard.need
+    along = guard.check(m, Pose(), step(-0.3))
+    assert along.ok and along.rear_speed < 0.0  # along the kerb it moves
+    nearer = State(inside.x, inside.y + ESCAPE_MARGIN_M + 0.005, 0.0, 0.0)  # 2.5 cm nearer than it began
+    assert not guard.check(Measurement(0.1, nearer, 0.0, -0.3), Pose(), step(-0.3)).ok
+    # Begun at least ESCAPE_MARGIN_M clear of the guard's clearance: the guard's clearance, as always.
+    assert guard.begin(Measurement(0.0, beside_the_kerb(guard, 0.5), 0.0, 0.0)) == guard.need
+    # Begun nearer than min_clearance_m: nothing below it.
+    assert guard.begin(Measurement(0.0, beside_the_kerb(guard, -0.1), 0.0, 0.0)) == guard.floor

@@ -17,6 +17,12 @@ over the rear axle's stopping travel at the asked speed, and allows the speed wh
 of the two caps holds. The NMPC's own horizon is checked instead, and its speed keeps the bound: with the
 roll-out under the NMPC too, it came faster into a tight garage and stopped off the goal more often
 (``alley_garage``, measured on its failing starts).
+
+A stage that begins nearer the scene than ``min_clearance_m + margin_m`` (:meth:`Guard.begin`: a stop's
+overshoot, a noisy reading) would be stopped at its first command, and the car could never leave; one that
+begins just clear of it, at its first wobble. Such a stage (less than :data:`ESCAPE_MARGIN_M` clear of that)
+keeps what it begins with less :data:`ESCAPE_MARGIN_M`, never less than ``min_clearance_m``. Its plan keeps
+about as much (the planner's start slack), so the car moves away along it.
 """
 
 from __future__ import annotations
@@ -34,7 +40,7 @@ from ..model.state import Pose, from_goal_frame
 from ..model.vehicle import VehicleTrailer
 from .step import ControlStep
 
-__all__ = ["BODY_SPEED_RATIO", "ROLLOUT_STEP_M", "Guard", "speed_for_travel"]
+__all__ = ["BODY_SPEED_RATIO", "CLEARANCE_SPARE_M", "ESCAPE_MARGIN_M", "ROLLOUT_STEP_M", "Guard", "speed_for_travel"]
 
 #: How much faster than the rear axle a point of a body can move, at most, in a parking maneuver:
 #: the car's front corners sweep about 1.6 times the axle's speed at full lock (Table 4's lengths).
@@ -44,6 +50,15 @@ BODY_SPEED_RATIO = 2.0
 #: most :data:`BODY_SPEED_RATIO` times as far, so the clearance between two samples is at most half that lower
 #: than at the nearer one, and each sample must keep that much more.
 ROLLOUT_STEP_M = 0.01
+
+
+#: The NMPC's predictions keep this much more than the guard asks [m]: the guard then never stops a plan
+#: the solver kept clear to its tolerance.
+CLEARANCE_SPARE_M = 0.01
+
+#: A stage that begins nearer than the guard's clearance keeps what it begins with less this [m] (the planner's
+#: path from there keeps its start's clearance less 1 cm; this leaves the tracking another centimetre).
+ESCAPE_MARGIN_M = 0.02
 
 
 def speed_for_travel(travel: float, decel: float, lag: float) -> float:
@@ -62,8 +77,19 @@ class Guard:
     ):
         self.vehicle, self.dt, self.delay = vehicle, dt, delay
         self.need = min_clearance_m + margin_m
+        self.floor = min_clearance_m
+        self.stage_need = self.need  # what the stage under way keeps (:meth:`begin`)
         self.checker = SceneChecker(vehicle, scene)
         self.least = math.inf  # least clearance seen, for the record
+
+    def begin(self, measurement: Measurement) -> float:
+        """A stage begins at ``measurement``: from here on it keeps the guard's clearance, or, when it begins less
+        than :data:`ESCAPE_MARGIN_M` clearer than that, what it begins with less that margin (at least
+        ``min_clearance_m``). Returns what it keeps [m]."""
+        s = measurement.state
+        now = float(self.checker.clearances(np.array([[s.x, s.y, s.yaw, s.hitch]]))[0])
+        self.stage_need = max(self.floor, min(self.need, now - ESCAPE_MARGIN_M))
+        return self.stage_need
 
     def max_speed(self, room: float) -> float:
         """Largest rear-axle speed [m/s] that can stop within ``room`` metres of body travel."""
@@ -91,7 +117,7 @@ class Guard:
             x = x + ds / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
             samples.append(x.T)
         clear = self.checker.clearances(np.vstack(samples)).reshape(n, len(steers)).min(axis=1)
-        short = np.flatnonzero(clear < self.need + BODY_SPEED_RATIO * ds / 2.0)
+        short = np.flatnonzero(clear < self.stage_need + BODY_SPEED_RATIO * ds / 2.0)
         return travel if not len(short) else float(short[0]) * ds
 
     def speed_for_travel(self, travel: float) -> float:
@@ -115,16 +141,16 @@ class Guard:
         clearances = self.checker.clearances(np.vstack(configs))
         now, ahead = float(clearances[0]), float(clearances.min())
         self.least = min(self.least, now)
-        if ahead < self.need:
+        if ahead < self.stage_need:
             return replace(
                 step,
                 rear_speed=0.0,
                 trailer_speed=0.0,
                 ok=False,
                 stop=True,
-                status=f"guard: too close to the scene: {ahead:.2f} m {'now' if now < self.need else 'ahead'}",
+                status=f"guard: too close to the scene: {ahead:.2f} m {'now' if now < self.stage_need else 'ahead'}",
             )
-        cap = self.max_speed(now - self.need)
+        cap = self.max_speed(now - self.stage_need)
         if abs(step.rear_speed) <= cap:
             return step
         if len(configs) == 1:  # a controller that predicts nothing: the roll-out (see the module text)

@@ -115,6 +115,7 @@ class FullNMPC(RecedingHorizon):
         # The OCPs by (tracking a reference, keeping clear of a scene), each built when first needed.
         self._programs: dict[tuple[bool, bool], Program] = {(False, False): self._program}
         self._scene, self._clearance_m = Scene(), 0.0
+        self._base_clearance_m = 0.0
         self._reference: PathReference | None = None
         self._references = np.zeros((0, 6))  # the reference of each prediction step, this step
         self._first_now = self.prediction_step  # this sample's first prediction step [s]
@@ -136,6 +137,7 @@ class FullNMPC(RecedingHorizon):
         check_range("clearance_m", clearance_m, 0.0, 10.0, unit="m")
         self.reset(self._last_steer)
         self._scene, self._clearance_m = scene, float(clearance_m)
+        self._base_clearance_m = self._clearance_m
         # Every OCP this scene may need, and the general route of its free-steer problems, built now rather
         # than in the first tick of a stage (``hitchpark realtime``).
         lines = not scene.is_empty and self.settings.obstacle_planes > 0
@@ -144,6 +146,12 @@ class FullNMPC(RecedingHorizon):
                 program = self._program_for(tracking, with_lines)
                 self._general_solver(program)
                 self._relaxed_solver(program)
+        self._program = self._program_for(self._reference is not None)
+
+    def ease_clearance(self, clearance_m: float) -> None:
+        """From now on keep the bodies ``clearance_m`` from the scene where that is less than :meth:`keep_clear`
+        asked (what it asked otherwise): for a stage that begins nearer than that."""
+        self._clearance_m = min(self._base_clearance_m, float(clearance_m))
         self._program = self._program_for(self._reference is not None)
 
     def follow(self, reference: PathReference | None) -> None:

@@ -16,6 +16,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from ..control.estimator import Estimator
 from ..control.step import ControlStep
 from ..model.inverse import virtual_steer_from_front
 from ..model.kinematics import trailer_speed_from_rear_speed
@@ -70,6 +71,12 @@ class ClosedLoop:
     clock: Clock | None = None
     predictions: list[np.ndarray] | None = None  # one predicted path per row, when recorded (else None)
     extras: dict[str, list[float]] | None = None  # a controller's own columns (the knob assist's), NaN where none
+    estimator: Estimator | None = None  # between the sensors and the controllers (None: the readings as they are)
+
+    def sense(self) -> Measurement:
+        """What the controllers see now: the plant's reading, through the estimator if there is one."""
+        m = self.plant.sense()
+        return m if self.estimator is None else self.estimator.update(m)
 
     def in_flight(self) -> tuple[Command, ...]:
         """The commands issued but not yet acted on: the known delay."""
@@ -140,7 +147,7 @@ class ClosedLoop:
     def brake(self, stage: int) -> bool:
         """Stop the car (commands in flight still act); False on a jackknife or timeout."""
         while not self.plant.stopped():
-            if self.out_of_time() or not self.step(stage, self.plant.sense(), Command(0.0, self.last.front_steer)):
+            if self.out_of_time() or not self.step(stage, self.sense(), Command(0.0, self.last.front_steer)):
                 return False
         return True
 
@@ -153,13 +160,13 @@ class ClosedLoop:
             if self.out_of_time():
                 return False
             steer = self.last.front_steer + clamp(target - self.last.front_steer, -rate, rate)
-            if not self.step(stage, self.plant.sense(), Command(0.0, steer)):
+            if not self.step(stage, self.sense(), Command(0.0, steer)):
                 return False
         return True
 
     def final_row(self, stage: int) -> None:
         """The final state and a stop, steer held."""
-        m = self.plant.sense()
+        m = self.sense()
         vehicle = self.plant.vehicle
         before = self.plant.configuration
         self.states.append(before)
@@ -191,13 +198,13 @@ class ClosedLoop:
 def run_stage(loop: ClosedLoop, index: int, stage: Stage) -> StageEnd:
     """Drive one stage to its end at standstill; how it ended (the loop's outcome set on a jackknife or timeout)."""
     kind, controller = stage.kind, stage.controller
-    want = stage.begin(loop.plant.sense(), loop.goal)
+    want = stage.begin(loop.sense(), loop.goal)
     if want is not None and not loop.settle(index, want):
         return StageEnd(kind, controller, loop.outcome.value if loop.outcome else "settle")
     for step in range(stage.max_steps):
         if loop.out_of_time():
             return StageEnd(kind, controller, Outcome.TIMEOUT.value)
-        m = loop.plant.sense()
+        m = loop.sense()
         u = stage.act(m, loop.goal, loop.in_flight())
         if not u.ok:  # stopped safely; the process says what comes next
             loop.brake(index)

@@ -83,10 +83,11 @@ def straight_approach(goal: Pose, length: float, step: float) -> np.ndarray:
 def planner_settings(settings: ManeuverSettings) -> PlannerSettings:
     """The planner's settings in the planned process: its paths keep ``success.min_clearance_m +
     process.plan_margin_m`` (or the planner's own, if more). A start nearer the scene than that is planned from
-    keeping its own clearance, down to where the guard stops the car (the sweep's starts keep
-    ``start_clearance_m``, a little more). Its forward runs keep within the tracker's steer cap."""
+    keeping its own clearance, down to ``success.min_clearance_m`` (nearer than the guard's clearance, the guard
+    lets a stage keep what it begins with, :meth:`~hitchpark.control.guard.Guard.begin`). Its forward runs keep
+    within the tracker's steer cap."""
     clearance = max(settings.planner.min_clearance_m, settings.success.min_clearance_m + settings.process.plan_margin_m)
-    slack = max(0.0, clearance - settings.guard_clearance_m)
+    slack = max(0.0, clearance - settings.success.min_clearance_m)
     return replace(
         settings.planner,
         min_clearance_m=clearance,

@@ -20,6 +20,8 @@ from __future__ import annotations
 from dataclasses import replace
 
 from ..checks import InputError, check_flag, check_instance, check_text
+from ..control.estimator import Estimator
+from ..control.guard import CLEARANCE_SPARE_M
 from ..control.nmpc import FullNMPC, TrailerNMPC, make_nmpc
 from ..model.plant import Plant, PlantSettings
 from ..model.scene import Scene
@@ -41,14 +43,10 @@ def direction_segments_of(stages: list[StageResult]) -> int:
     return sum(1 for i, st in enumerate(stages) if i == 0 or st.kind != stages[i - 1].kind)
 
 
-#: The NMPC's predictions keep this much more than the guard asks [m]: the guard then never stops a plan
-#: the solver kept clear to its tolerance.
-CLEARANCE_SPARE_M = 0.01
-
-
 def predicted_clearance_m(settings: ManeuverSettings) -> float:
     """How far the planned process's NMPC keeps its predicted bodies from the scene [m] (the obstacle OCP,
-    :meth:`~hitchpark.control.nmpc.FullNMPC.keep_clear`): what the guard asks, and :data:`CLEARANCE_SPARE_M`."""
+    :meth:`~hitchpark.control.nmpc.FullNMPC.keep_clear`): what the guard asks, and
+    :data:`~hitchpark.control.guard.CLEARANCE_SPARE_M`."""
     return settings.success.min_clearance_m + settings.process.guard_margin_m + CLEARANCE_SPARE_M
 
 
@@ -123,6 +121,8 @@ def park(
     loop = ClosedLoop(
         car, goal, plant.delay_steps, crit.max_time, vehicle.max_steer_rate, vehicle.max_accel, clock=clock
     )
+    if settings.estimator.filters:
+        loop.estimator = Estimator(vehicle, settings.estimator, settings.nmpc.dt)
     loop.predictions = [] if check_flag("predictions", predictions) else None
     process = make_process(vehicle, settings, scene, controller, plant.delay_steps)
     stages, ending = _drive(loop, process, crit)
@@ -149,7 +149,7 @@ def _drive(loop: ClosedLoop, process: Process, crit: SuccessCriteria) -> tuple[l
     records, and the process's ending if it ended it."""
     stages: list[StageResult] = []
     clock = loop.clock
-    stage = process.first(loop.plant.sense(), loop.goal)
+    stage = process.first(loop.sense(), loop.goal)
     if clock is not None:
         clock.restart()
     while not isinstance(stage, Ending):
@@ -161,7 +161,7 @@ def _drive(loop: ClosedLoop, process: Process, crit: SuccessCriteria) -> tuple[l
         if stage.kind == "reverse" and is_parked(loop, crit):
             loop.outcome = Outcome.PARKED
             return stages, None
-        upcoming = process.next(loop.plant.sense(), loop.goal, ended)
+        upcoming = process.next(loop.sense(), loop.goal, ended)
         if clock is not None:
             clock.restart()
         turns = not isinstance(upcoming, Ending) and upcoming.kind != stage.kind

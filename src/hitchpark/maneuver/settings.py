@@ -1,7 +1,7 @@
 """The settings that shape a maneuver: its controllers, its process, and what counts as success.
 
 :class:`ManeuverSettings` gathers them, one table each in a file (``[nmpc]``, ``[forward]``,
-``[success]``, ``[process]``, ``[tracking]``, ``[planner]``); :meth:`ManeuverSettings.from_dict` is
+``[success]``, ``[process]``, ``[tracking]``, ``[planner]``, ``[estimator]``); :meth:`ManeuverSettings.from_dict` is
 the one reader of those tables.
 """
 
@@ -12,6 +12,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from ..checks import Choice, Flag, Integer, Real, build, check_fields, check_keys, check_mapping, checked
+from ..control.estimator import EstimatorSettings
 from ..control.path_tracking import TrackingSettings
 from ..control.pure_pursuit import PurePursuitSettings
 from ..ocp.settings import NMPCSettings
@@ -115,6 +116,7 @@ class ManeuverSettings:
     process: ProcessSettings = field(default_factory=ProcessSettings)
     tracking: TrackingSettings = field(default_factory=TrackingSettings)
     planner: PlannerSettings = field(default_factory=PlannerSettings)
+    estimator: EstimatorSettings = field(default_factory=EstimatorSettings)
 
     @property
     def guard_clearance_m(self) -> float:
@@ -147,6 +149,7 @@ class ManeuverSettings:
             process=build(ProcessSettings, tables.get("process", {}), "process"),
             tracking=build(TrackingSettings, tables.get("tracking", {}), "tracking"),
             planner=build(PlannerSettings, tables.get("planner", {}), "planner"),
+            estimator=build(EstimatorSettings, tables.get("estimator", {}), "estimator"),
         )
 
 
@@ -156,4 +159,4 @@ def _listed(value: Any) -> Any:
 
 
 #: The tables of maneuver settings in a file.
-SETTINGS_TABLES = ("nmpc", "forward", "success", "process", "tracking", "planner")
+SETTINGS_TABLES = ("nmpc", "forward", "success", "process", "tracking", "planner", "estimator")

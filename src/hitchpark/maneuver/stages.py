@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 from typing import Protocol
 
 from ..checks import InputError
-from ..control.guard import Guard
+from ..control.guard import CLEARANCE_SPARE_M, Guard
 from ..control.nmpc import FullNMPC, TrailerNMPC, make_nmpc
 from ..control.path_tracking import PathTracker
 from ..control.pure_pursuit import ForwardPursuit
@@ -171,6 +171,10 @@ class GuardedStage:
         return self.stage.max_steps
 
     def begin(self, measurement: Measurement, goal: Pose) -> float | None:
+        need = self.guard.begin(measurement)
+        if isinstance(self.stage, ReverseStage) and isinstance(self.stage.nmpc, FullNMPC):
+            # Its predictions keep what the guard keeps this stage, and the spare (keep_clear's, or less).
+            self.stage.nmpc.ease_clearance(need + CLEARANCE_SPARE_M)
         return self.stage.begin(measurement, goal)
 
     def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> ControlStep:

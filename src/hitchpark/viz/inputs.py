@@ -3,10 +3,10 @@
 Row k of a trajectory holds the state at t_k and what happened from t_k to t_k+1. With a
 steering actuator, ``front_steer`` and ``rear_speed`` are the actual values at t_k (drawn as
 lines through the samples) and ``front_steer_cmd`` and ``rear_speed_cmd`` the commands issued
-at t_k and held to t_k+1 (drawn as steps); ``hitch_measured`` is what the sensor reported
-beside the true ``hitch``. Each of these extra columns is drawn only when present, so a
-maneuver saved without them still plots: there ``front_steer`` and ``rear_speed`` are the
-commands themselves, drawn as steps as before.
+at t_k and held to t_k+1 (drawn as steps); ``hitch_measured`` is what the controllers saw (the sensor's
+reading, or its estimate when ``settings.estimator`` filters it) beside the true ``hitch``. Each of these
+extra columns is drawn only when present, so a maneuver saved without them still plots: there
+``front_steer`` and ``rear_speed`` are the commands themselves, drawn as steps as before.
 
 The steer rate is a finite difference in both cases: the actual one, (δ_k+1 - δ_k) / Δt, is
 drawn over [t_k, t_k+1), where the wheels made that change; the commanded one,
@@ -147,7 +147,8 @@ def _hitch_panel(ax: Axes, result: ManeuverResult) -> None:
     title = f"(f) Hitch angle: max |{DPSI}| = {result.max_abs_hitch_deg:.1f}°, final {final_errors(result)[2]:.3g}°"
     if "hitch_measured" in tr:
         measured = np.degrees(tr["hitch_measured"])
-        ax.plot(t, measured, ls="none", marker=".", ms=3.0, alpha=0.45, color=_MEASURED, label="measured (sensor)")
+        seen = "estimated (filtered sensor)" if result.settings.estimator.filters else "measured (sensor)"
+        ax.plot(t, measured, ls="none", marker=".", ms=3.0, alpha=0.45, color=_MEASURED, label=seen)
         ax.plot(t, true, color=_ACTUAL, lw=1.4, label=r"true $\Delta\psi = \psi_1 - \psi_2$")
         error = measured - true
         error = error[np.isfinite(error)]
