@@ -19,7 +19,9 @@ model as its prediction:
 
 Several readings at one time (a stage's start, the steer set standing) are several corrections. A component
 whose sensor is exact (its std 0) is the reading itself: with every std 0, the default, the controllers see
-the readings as they are, bit for bit.
+the readings as they are, bit for bit. :func:`~hitchpark.maneuver.park` (and so ``park``, ``reproduce`` and
+``sweep``) puts it in its loop from the settings' ``[estimator]`` table; the knob assist reads the sensors as
+they are.
 """
 
 from __future__ import annotations
