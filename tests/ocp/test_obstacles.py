@@ -218,6 +218,23 @@ def test_the_obstacle_ocp_keeps_its_plan_clear_where_the_open_one_does_not():
     assert _plan_clearances(nmpc, start, goal, wall)[1] == pytest.approx(open_least, abs=1e-6)
 
 
+def test_eased_for_a_stage_that_begins_near_the_clearance_is_never_more_than_asked():
+    goal = Pose()
+    start = State(7.0, 1.2, math.radians(-8.0), math.radians(-6.0))
+    wall = Scene((Obstacle("wall", np.array([[0.5, 2.1], [5.0, 2.1], [5.0, 3.0], [0.5, 3.0]])),))
+    nmpc = FullNMPC(VEHICLE, NMPCSettings(jit=False))
+    nmpc.keep_clear(wall, 0.3)
+    nmpc.ease_clearance(0.5)
+    assert nmpc.clearance_m == 0.3
+    nmpc.ease_clearance(0.1)
+    assert nmpc.clearance_m == 0.1
+    nmpc.reset()
+    ok, least = _plan_clearances(nmpc, start, goal, wall)
+    assert ok and least >= 0.1 - 1e-6
+    nmpc.keep_clear(wall, 0.3)  # asked again: the clearance asked
+    assert nmpc.clearance_m == 0.3
+
+
 class _FailingSolver:
     """A solver that never succeeds and answers with a wild iterate (as a failed interior-point run can)."""
 

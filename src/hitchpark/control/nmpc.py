@@ -148,6 +148,11 @@ class FullNMPC(RecedingHorizon):
                 self._relaxed_solver(program)
         self._program = self._program_for(self._reference is not None)
 
+    @property
+    def clearance_m(self) -> float:
+        """How far [m] the predicted bodies keep from the scene now (:meth:`keep_clear`, :meth:`ease_clearance`)."""
+        return self._clearance_m
+
     def ease_clearance(self, clearance_m: float) -> None:
         """From now on keep the bodies ``clearance_m`` from the scene where that is less than :meth:`keep_clear`
         asked (what it asked otherwise): for a stage that begins nearer than that."""
