@@ -11,6 +11,7 @@ from ..ocp.settings import NMPCSettings
 from ..ocp.trailer import TrailerParkingProblem
 from ..solvers.registry import ROUTES, make_solver, register_solver
 from ..solvers.transcription import MultipleShooting, SingleShooting, make_transcription
+from .estimator import Estimator, EstimatorSettings
 from .nmpc import FullNMPC, NMPCStep, TrailerNMPC, make_nmpc
 from .pure_pursuit import ForwardPursuit, PurePursuitSettings
 from .step import Controller, ControlStep
@@ -19,6 +20,8 @@ __all__ = [
     "ROUTES",
     "ControlStep",
     "Controller",
+    "Estimator",
+    "EstimatorSettings",
     "ForwardPursuit",
     "FullNMPC",
     "FullParkingProblem",
