@@ -100,3 +100,22 @@ def test_full_nmpc_on_the_ideal_plant_starts_each_stage_from_rest():
     result = park(V, State(8.0, 2.0, 0.3, 0.1), settings=staged, plant=PlantSettings(kind="ideal"))
     assert [s.kind for s in result.stages][:3] == ["reverse", "forward", "reverse"]
     assert result.outcome is Outcome.PARKED, result.detail
+
+
+@pytest.mark.slow
+def test_told_the_sensors_noise_the_controllers_see_the_estimate_nearer_the_truth(results):
+    """The car with faults, its controller told the hitch sensor's 0.5 deg: ``hitch_measured`` is then the
+    estimate, and it is nearer the true hitch than the readings the same maneuver saw without the estimator (0.36
+    against 0.49 deg RMS: the lengths 10% off, the model's prediction lags while the hitch swings)."""
+    from hitchpark.control import EstimatorSettings
+
+    told = ManeuverSettings(estimator=EstimatorSettings(hitch_noise_std_deg=0.5))
+    filtered = park(V, STARTS["random"], settings=told, plant=FAULTS)
+    assert filtered.success, (filtered.reason, filtered.detail)
+
+    def rms(r: ManeuverResult) -> float:
+        tr = r.trajectory
+        return float(np.sqrt(np.mean((tr["hitch_measured"] - tr["hitch"]) ** 2)))
+
+    assert rms(filtered) < 0.8 * rms(results["faults"])
+    assert math.degrees(rms(results["faults"])) == pytest.approx(0.5, rel=0.2)  # the readings, as the sensor gives
