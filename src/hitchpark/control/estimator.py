@@ -32,6 +32,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..checks import Real, check_fields, checked
+from ..model.integrate import rk4
 from ..model.kinematics import full_rhs
 from ..model.plant import Measurement
 from ..model.state import State, wrap_angle
@@ -104,12 +105,7 @@ class Estimator:
 
     def predict(self, x: np.ndarray, inputs: np.ndarray, dt: float) -> np.ndarray:
         """The model's configuration ``dt`` seconds on from ``x`` at ``inputs`` (speed, steer) held: RK4."""
-        f = lambda y: np.asarray(full_rhs(self.vehicle, y, inputs), dtype=float)  # noqa: E731
-        k1 = f(x)
-        k2 = f(x + 0.5 * dt * k1)
-        k3 = f(x + 0.5 * dt * k2)
-        k4 = f(x + dt * k3)
-        return x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        return np.asarray(rk4(lambda y: full_rhs(self.vehicle, y, inputs), x, dt, substeps=1), dtype=float)
 
     def update(self, m: Measurement) -> Measurement:
         """The measurement with the configuration estimated from every reading so far, this one last."""

@@ -33,6 +33,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..model.checker import SceneChecker
+from ..model.integrate import rk4
 from ..model.kinematics import full_rhs
 from ..model.plant import Measurement
 from ..model.scene import Scene
@@ -110,11 +111,7 @@ class Guard:
         x = np.repeat(np.asarray(state, dtype=float)[:, None], len(steers), axis=1)
         samples = []
         for _ in range(n):  # RK4 over the rear axle's travel (unit speed), every steer at once
-            k1 = full_rhs(self.vehicle, x, inputs)
-            k2 = full_rhs(self.vehicle, x + 0.5 * ds * k1, inputs)
-            k3 = full_rhs(self.vehicle, x + 0.5 * ds * k2, inputs)
-            k4 = full_rhs(self.vehicle, x + ds * k3, inputs)
-            x = x + ds / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            x = rk4(lambda y: full_rhs(self.vehicle, y, inputs), x, ds, substeps=1)
             samples.append(x.T)
         clear = self.checker.clearances(np.vstack(samples)).reshape(n, len(steers)).min(axis=1)
         short = np.flatnonzero(clear < self.stage_need + BODY_SPEED_RATIO * ds / 2.0)
