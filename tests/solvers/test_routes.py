@@ -439,8 +439,9 @@ def test_nothing_compiles_once_the_planners_clock_runs_among_obstacles(jit_cache
     real_prepare, real_cached = planner.prepare, native.cached_library
 
     def prepare(*args):
-        real_prepare(*args)
+        prepared = real_prepare(*args)
         clock["running"] = True
+        return prepared
 
     def cached(name, key, build, rebuild=False):
         def recorded(*args):

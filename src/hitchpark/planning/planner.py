@@ -3,23 +3,21 @@
 
 from __future__ import annotations
 
+import math
 import time
-from dataclasses import replace
 
 from ..checks import InputError, check_instance
+from ..model.collision import swept_clearance
 from ..model.scene import Scene
 from ..model.state import Pose, State, check_goal, check_state
 from ..model.vehicle import VehicleTrailer, check_vehicle
 from .prepare import prepare
+from .reach import GoalReach
 from .refine import refine_plan
 from .search import Search
-from .settings import Plan, PlannerSettings
+from .settings import REFINEMENTS, START_MARGIN_M, Plan, PlannerSettings, finer
 
 __all__ = ["REFINEMENTS", "plan"]
-
-
-#: How many times a search that exhausts its grid is repeated on a grid twice as fine.
-REFINEMENTS = 2
 
 
 def plan(
@@ -54,8 +52,12 @@ def plan(
         raise InputError(
             f"planner.hitch_margin must be < max_hitch ({vehicle.max_hitch:g} rad), got {settings.hitch_margin:g}"
         )
-    tree = prepare(vehicle, goal, scene, settings)
+    tree, reach = prepare(vehicle, goal, scene, settings)
     began = time.perf_counter()
+    if reach is not None and reach.closed and not reach.holds(start.as_array()):
+        exact, _ = swept_clearance(vehicle, scene, start.as_array()[None, :])
+        if exact >= settings.min_clearance_m + START_MARGIN_M:  # the search would keep the flood's clearance
+            return _closed_in(vehicle, goal, scene, settings, reach, began)
     expanded = 0
     for refinement in range(REFINEMENTS + 1):
         search = Search(vehicle, start, goal, scene, settings, began, tree)
@@ -64,11 +66,28 @@ def plan(
         expanded = result.expanded
         if not search.exhausted or refinement == REFINEMENTS:
             return refine_plan(vehicle, goal, scene, settings, result) if result.found else result
-        # The grid was too coarse to hold a way through: halve every cell and search again.
-        settings = replace(
-            settings,
-            xy_resolution_m=settings.xy_resolution_m / 2,
-            yaw_bins=min(3600, settings.yaw_bins * 2),
-            hitch_bins=min(3600, settings.hitch_bins * 2),
-        )
+        settings = finer(settings)  # the grid was too coarse to hold a way through: halve every cell
     return result  # pragma: no cover (the loop returns)
+
+
+def _closed_in(
+    vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: PlannerSettings, reach: GoalReach, began: float
+) -> Plan:
+    """``no_path`` for a start outside a closed goal's reach (:mod:`.reach`): how far out the combination gets."""
+    far = reach.farthest(goal)
+    out = math.hypot(far[0] - goal.x, far[1] - goal.y)
+    detail = (
+        f"the goal is closed in: driving out of it, forward and in reverse, the combination gets no farther than "
+        f"{out:.2f} m (trailer axle) keeping {settings.min_clearance_m:g} m from the scene, on grids down to "
+        f"{reach.settings.xy_resolution_m:g} m ({reach.expanded} expansions); no start outside that has a path"
+    )
+    return Plan(
+        status="no_path",
+        path={},
+        direction_switches=0,
+        length_m=0.0,
+        planning_s=time.perf_counter() - began,
+        expanded=0,
+        detail=detail,
+        closest=far[:4].copy(),
+    )

@@ -19,6 +19,7 @@ from .endgame import EndGame
 from .motion import PrimitiveBatch
 from .opening import OPENING_FORWARD_M
 from .raster import distance_grid
+from .reach import GoalReach, goal_reach, needs_reach, reach_settings
 from .refine import REFINE_PLANES, refine_solver
 from .settings import PlannerSettings
 from .tree import GoalTree, goal_tree
@@ -26,9 +27,12 @@ from .tree import GoalTree, goal_tree
 __all__ = ["TREE_FIELDS", "prepare", "scene_bounds", "tree_settings", "uses_tree"]
 
 
-def prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: PlannerSettings) -> GoalTree | None:
-    """Build the batch rollouts and pursuits a search uses before its clock starts, and the goal tree among
-    obstacles (:mod:`.tree`, returned; the searches on finer grids use it as it is).
+def prepare(
+    vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: PlannerSettings
+) -> tuple[GoalTree | None, GoalReach | None]:
+    """Build the batch rollouts and pursuits a search uses before its clock starts, the goal tree among
+    obstacles (:mod:`.tree`; the searches on finer grids use it as it is) and, where the tree reaches little
+    of the scene, the goal's reach (:mod:`.reach`): both returned.
 
     They are compiled to C once per machine (cached on disk, :func:`~hitchpark.native.native`) and loaded
     once per process; that set-up is not planning, and is not counted in a plan's time (nor in its safety
@@ -46,15 +50,18 @@ def prepare(vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: Planner
         prepare_distances()
     if scene.area is not None:  # a search's distance grid (its bounds are the area's, whatever the start)
         distance_grid(scene, scene_bounds(vehicle, goal, scene, settings), settings.collision_cell_m)
-    tree = None
+    tree, reach = None, None
     if uses_tree(scene, settings):
-        tree = goal_tree(vehicle, goal, scene, tree_settings(settings), scene_bounds(vehicle, goal, scene, settings))
+        bounds = scene_bounds(vehicle, goal, scene, settings)
+        tree = goal_tree(vehicle, goal, scene, tree_settings(settings), bounds)
+        if needs_reach(tree):
+            reach = goal_reach(vehicle, goal, scene, reach_settings(settings), bounds)
     if settings.refine_m:
         planes = 0 if scene.is_empty else REFINE_PLANES
         refine_solver(vehicle, vehicle.max_hitch - settings.hitch_margin, planes, settings.refine_solver)
         if planes:
             prepare_lines()  # the refinement's lines around the scene
-    return tree
+    return tree, reach
 
 
 def uses_tree(scene: Scene, settings: PlannerSettings) -> bool:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -17,11 +17,13 @@ __all__ = [
     "NEAR_START_MARGIN_M",
     "NEAR_START_STEP_M",
     "PATH_COLUMNS",
+    "REFINEMENTS",
     "START_MARGIN_M",
     "STATUSES",
     "Plan",
     "PlannerSettings",
     "arrived",
+    "finer",
 ]
 
 #: A start within ``start_slack_m`` of ``min_clearance_m`` is planned from keeping its own clearance less this [m]
@@ -42,6 +44,9 @@ STATUSES = ("found", "no_path", "planner_timeout")
 
 #: The columns of :attr:`Plan.path`, one row per sample of the path.
 PATH_COLUMNS = ("x_trailer", "y_trailer", "yaw_trailer", "hitch", "front_steer", "direction", "s", "t")
+
+#: How many times a search that exhausts its grid is repeated on a grid twice as fine (:func:`finer`).
+REFINEMENTS = 2
 
 _ANGLE = Real(0.0, math.pi, low_open=True, unit="rad")
 _WEIGHT = Real(0.0, 1000.0)
@@ -207,6 +212,16 @@ class PlannerSettings:
     def samples(self) -> int:
         """Samples (RK4 steps) per primitive."""
         return max(1, round(self.primitive_length_m / self.sample_step_m))
+
+
+def finer(settings: PlannerSettings) -> PlannerSettings:
+    """``settings`` on a grid twice as fine: every cell halved, in place, heading and hitch."""
+    return replace(
+        settings,
+        xy_resolution_m=settings.xy_resolution_m / 2,
+        yaw_bins=min(3600, settings.yaw_bins * 2),
+        hitch_bins=min(3600, settings.hitch_bins * 2),
+    )
 
 
 def arrived(settings: PlannerSettings, gx: Any, gy: Any, gyaw: Any, hitch: Any) -> Any:

@@ -42,7 +42,7 @@ from .motion import PrimitiveBatch
 from .raster import distance_grid
 from .settings import PlannerSettings
 
-__all__ = ["TREE_MAX_M", "TREE_NODES", "GoalTree", "cell_key", "goal_tree"]
+__all__ = ["TREE_MAX_M", "TREE_NODES", "GoalTree", "cell_key", "goal_tree", "tree_cache_key"]
 
 #: The most nodes the tree expands.
 TREE_NODES = 6000
@@ -224,13 +224,14 @@ class GoalTree:
         return np.vstack(parts)
 
 
-def _cache_key(
-    vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: PlannerSettings, bounds: tuple[float, ...]
+def tree_cache_key(
+    kind: str, vehicle: VehicleTrailer, goal: Pose, scene: Scene, settings: PlannerSettings, bounds: tuple[float, ...]
 ) -> str:
+    """The cache name of a per-scene structure ``kind`` grown by this code from these."""
     obstacles = [(o.name, np.asarray(o.polygon).round(9).tolist()) for o in scene.obstacles]
     area = None if scene.area is None else np.asarray(scene.area.boundary).round(9).tolist()
     # Compiled primitives and CasADi's virtual machine agree to rounding, not to the bit: their trees apart.
-    text = repr(("goal-tree", _code(), jit_available(), vehicle, goal, obstacles, area, settings, bounds))
+    text = repr((kind, _code(), jit_available(), vehicle, goal, obstacles, area, settings, bounds))
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
@@ -255,7 +256,7 @@ def goal_tree(
 ) -> GoalTree:
     """The :class:`GoalTree` of these, built once: kept in the process and on disk (:mod:`.cache`)."""
     arrays = cached_arrays(
-        f"planner-tree-{_cache_key(vehicle, goal, scene, settings, bounds)}",
+        f"planner-tree-{tree_cache_key('goal-tree', vehicle, goal, scene, settings, bounds)}",
         ("states", "parent", "cost", "samples"),
         lambda: GoalTree(vehicle, goal, scene, settings, bounds).arrays,
     )
