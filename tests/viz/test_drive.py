@@ -4,6 +4,7 @@ the page's messages read leniently, and the loopback rule of ``hitchpark drive``
 from __future__ import annotations
 
 import pytest
+from person import Person, in_the_bay
 
 from hitchpark.checks import InputError
 from hitchpark.cli import main
@@ -36,6 +37,21 @@ def test_a_drive_left_rolling_is_stopped_within_the_limits_when_saved():
     assert result.reason == "stopped_by_driver"
     speed = result.trajectory["rear_speed_cmd"][:-1]  # the last row records a stop, not a command
     assert abs(speed[-1]) == 0.0 and max(abs(speed[1:] - speed[:-1])) <= 0.1 + 1e-12
+
+
+def test_a_scripted_person_backs_the_bay_into_its_space_by_knob():
+    """The person of the browser test, ticking the drive directly: from the bay's start, a look a tick."""
+    drive = LiveDrive(builtin_scenario("bay"), max_time=120.0)
+    person = Person(drive.assist.kappa_max)
+    view = drive.view(None)
+    while not drive.done:
+        x, y, yaw, _ = view["state"]
+        if person.look(x, y, yaw) == ["Escape"]:
+            drive.stop()
+        view = drive.tick(person.knob, drive.settings.max_speed)
+    result = drive.result()
+    assert result.reason == "stopped_by_driver"
+    in_the_bay(result)
 
 
 def test_the_page_is_one_file_that_talks_to_its_own_server_only():

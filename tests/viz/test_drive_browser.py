@@ -1,5 +1,6 @@
 """``hitchpark drive`` in a real headless browser (Chromium): a scripted person holds full left knob for 20 s of
-the car's time from a straight start, then presses Esc.
+the car's time from a straight start, then presses Esc; and a person backs the bay scene into its space by keys,
+recorded by Playwright (a trace, ``HITCHPARK_RECORD_DIR`` keeps it with the drive), the drive opening in the viewer.
 
 Skipped, saying why, where no browser is found (see :mod:`browser`) or aiohttp (the ``drive`` extra) is missing.
 """
@@ -8,14 +9,18 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import queue
+import shutil
 import threading
+from pathlib import Path
 
 import pytest
-from browser import launched
+from browser import Page, launched
+from person import Person, in_the_bay
 
 from hitchpark.maneuver.result import ManeuverResult
-from hitchpark.maneuver.scenario import Scenario
+from hitchpark.maneuver.scenario import Scenario, builtin_scenario
 from hitchpark.model import State
 from hitchpark.viz.drive import save_into, serve_drive
 from hitchpark.viz.viewer import write_viewer
@@ -82,3 +87,65 @@ def test_a_person_holds_full_left_knob_and_stops_with_escape(tmp_path):
     first = next(i for i in range(len(t)) if t[i] > 20.0 and stopping[i] == 0.0)
     still = next(i for i in range(first, len(t)) if v[i] == 0.0)
     assert t[still] - t[first] <= moving / saved.vehicle.max_accel + 0.3
+
+
+@pytest.mark.slow
+def test_a_person_backs_the_bay_into_its_space_by_keys_recorded(tmp_path):
+    """From the bay's start, the person of :mod:`person` at the page, in real time: ↑ held, ← and → a few
+    presses a look at most, Esc at the end of the goal line. The trailer ends in its space, nothing touched; the
+    saved drive opens in the viewer from disk with no error."""
+    ready: queue.Queue[str] = queue.Queue()
+    outcome: dict[str, object] = {}
+
+    def serve() -> None:
+        outcome["result"] = serve_drive(
+            builtin_scenario("bay"), save_into(tmp_path), port=0, time_scale=1.0, max_time=120.0, on_ready=ready.put
+        )
+
+    threading.Thread(target=serve, daemon=True).start()
+    url = ready.get(timeout=60)
+    with launched() as browser:
+        context = browser.new_context(viewport={"width": 1100, "height": 700})
+        context.tracing.start(screenshots=True, snapshots=True)
+        page = context.new_page()
+        errors: list[str] = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+        page.route("**/*", lambda r: r.continue_() if r.request.url.startswith(url) else r.abort())
+        page.goto(url)
+        page.wait_for_function("() => window.hitchDrive && window.hitchDrive.ticks > 0", timeout=30_000)
+        data = json.loads(page.locator("#hitchpark-data").text_content())
+        person = Person(data["kappa_max"])
+        page.keyboard.down("ArrowUp")
+        presses = 0
+        while True:
+            drive = page.evaluate("window.hitchDrive")
+            assert drive["done"] is None, drive["done"]
+            x, y, yaw, _ = drive["last"]["state"]
+            person.knob = drive["knob"]  # they see where the knob is
+            keys = person.look(x, y, yaw)
+            for key in keys:
+                page.keyboard.press(key)
+            presses += len(keys)
+            if keys == ["Escape"]:
+                break
+            page.wait_for_function("n => window.hitchDrive.ticks > n", arg=drive["ticks"], timeout=10_000)
+        page.wait_for_function("() => window.hitchDrive.saved !== null", timeout=30_000)
+        page.keyboard.up("ArrowUp")
+        drive = page.evaluate("window.hitchDrive")
+        assert page.locator("#status").inner_text().startswith("ended: stopped by driver")
+        page.screenshot(path=str(tmp_path / "drive.png"))
+        context.tracing.stop(path=str(tmp_path / "person.zip"))
+        assert not errors, errors
+        saved = ManeuverResult.from_dict(json.loads((tmp_path / "maneuver.json").read_text()))
+        assert saved.reason == "stopped_by_driver" and presses > 10
+        in_the_bay(saved)
+        viewer = Page(browser, write_viewer(saved, tmp_path / "again.html"))  # what `hitchpark view` writes
+        assert not viewer.errors and not viewer.blocked
+        assert viewer.js("() => document.querySelectorAll('canvas, svg').length") > 0
+    assert (tmp_path / "person.zip").stat().st_size > 10_000  # the recording: Playwright's trace of the drive
+    keep = os.environ.get("HITCHPARK_RECORD_DIR")
+    if keep:
+        Path(keep).mkdir(parents=True, exist_ok=True)
+        for name in ("person.zip", "drive.png", "maneuver.json", "maneuver.html"):
+            shutil.copy(tmp_path / name, Path(keep) / name)

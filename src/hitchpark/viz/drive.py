@@ -19,6 +19,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..checks import InputError
 from ..maneuver.live import LiveDrive
 from ..maneuver.result import ManeuverResult
@@ -28,6 +30,9 @@ from .page import page
 __all__ = ["LOOPBACK", "check_host", "drive_page", "serve_drive"]
 
 LOOPBACK = "127.0.0.1"
+
+#: The page shows the scene up to this far [m] around the start and the goal.
+VIEW_MARGIN_M = 12.0
 
 
 def check_host(host: str, allow_remote: bool) -> str:
@@ -53,8 +58,12 @@ def drive_page(drive: LiveDrive) -> str:
     obstacles = [o["polygon"] for o in scene["obstacles"]]
     area = scene["area"]["boundary"] if scene.get("area") else None
     state = drive.view(None)
-    bounds = [p for poly in [*obstacles, *([area] if area else []), state["vehicle"], state["trailer"]] for p in poly]
-    bounds += [[sc.goal.x, sc.goal.y]]
+    points = [p for poly in [*obstacles, *([area] if area else []), state["vehicle"], state["trailer"]] for p in poly]
+    # The view: the scene, but no more of it than VIEW_MARGIN_M around the start and the goal (a long aisle or
+    # street drawn whole leaves the rig a few pixels long).
+    near = np.array([[sc.start.x, sc.start.y], [sc.goal.x, sc.goal.y]])
+    lo, hi = near.min(axis=0) - VIEW_MARGIN_M, near.max(axis=0) + VIEW_MARGIN_M
+    bounds = np.clip(np.array([*points, [sc.goal.x, sc.goal.y]], dtype=float), lo, hi).tolist()
     title = f"hitchpark drive: {sc.name}"
     data = {
         "title": title,
