@@ -128,6 +128,23 @@ def test_a_wall_behind_ends_stopped_for_the_obstacle_without_touching_it():
     assert {u.override for u in steps} <= set(OVERRIDES)
 
 
+def test_once_stopped_for_an_obstacle_it_stays_stopped_until_the_driver_lets_go_or_turns_the_knob():
+    wall = Scene((Obstacle("wall", ((-10.0, -6.0), (-9.0, -6.0), (-9.0, 6.0), (-10.0, 6.0))),))
+    assist, plant, steps, _, _ = drive(PlantSettings(), lambda t: 0.0, lambda t: 1.0, 25.0, wall)
+    assert steps[-1].override == "stopped_for_obstacle" and plant.rear_speed == 0.0
+    m = plant.sense()
+    # A reading 0.5 m clearer of the wall (noise, say) does not let the car creep on, nor does a small knob change.
+    clearer = type(m)(m.t, State(m.state.x + 0.5, m.state.y, m.state.yaw, m.state.hitch), m.front_steer, 0.0)
+    assert assist.step(clearer, 0.1, 1.0).rear_speed == 0.0
+    assert assist.step(clearer, 0.1, 1.0).override == "stopped_for_obstacle"
+    # Another request: the pedal let go and pressed again, or the knob turned by 0.2; the guard looks again.
+    assert assist.step(clearer, 0.1, 0.0).rear_speed == 0.0
+    assert assist.step(clearer, 0.1, 1.0).rear_speed < 0.0
+    assist.step(m, 0.0, 1.0)  # stopped again at the true reading (the guard's own stop)
+    assert assist.step(clearer, 0.0, 1.0).rear_speed == 0.0
+    assert assist.step(clearer, 0.25, 1.0).rear_speed < 0.0
+
+
 @pytest.mark.parametrize(
     "knob, speed, message",
     [

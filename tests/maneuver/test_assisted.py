@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -12,8 +13,10 @@ import pytest
 from hitchpark.assist import OVERRIDES
 from hitchpark.checks import InputError
 from hitchpark.cli import main
+from hitchpark.control.estimator import EstimatorSettings
 from hitchpark.maneuver.assisted import KnobProfile, drive_assisted, load_knob_profile
 from hitchpark.maneuver.result import ASSIST_COLUMNS, ManeuverResult
+from hitchpark.maneuver.scenario import builtin_scenario
 from hitchpark.model import PlantSettings, State, VehicleTrailer
 from hitchpark.model.scene import Obstacle, Scene
 
@@ -84,6 +87,25 @@ def test_a_drive_at_a_wall_ends_stopped_for_the_obstacle_with_no_collision():
     result = drive_assisted(V, STRAIGHT, profile, scene=wall, plant=faults)
     assert result.reason == "stopped_for_obstacle" and result.success
     assert not result.collision and result.min_clearance_m >= result.settings.success.min_clearance_m
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["driveway", "campsite", "curb_parallel", "bay", "loading_dock"])
+def test_full_lock_at_the_scene_ends_stopped_for_the_obstacle_on_both_plants(name):
+    """From each obstacle scene's start, backing at full lock until something is in the way: on its own plant to
+    the left, and to the right on a car with a delay and 0.5 deg of hitch noise, the controller told the noise
+    (its estimator). The guard stops the car each time, no nearer than success.min_clearance_m."""
+    sc = builtin_scenario(name)
+    t = np.array([0.0, 60.0])
+    faults = replace(sc.plant, delay_steps=1, hitch_noise_std_deg=0.5)
+    told = replace(sc.settings, estimator=EstimatorSettings(hitch_noise_std_deg=0.5))
+    for knob, plant, settings in ((1.0, sc.plant, sc.settings), (-1.0, faults, told)):
+        profile = KnobProfile(t, np.full(2, knob), np.ones(2))
+        result = drive_assisted(
+            sc.vehicle, sc.start, profile, goal=sc.goal, settings=settings, plant=plant, scene=sc.scene, name=name
+        )
+        assert result.reason == "stopped_for_obstacle", (knob, result.reason, result.min_clearance_m)
+        assert not result.collision and result.min_clearance_m >= sc.settings.success.min_clearance_m
 
 
 def test_the_command_writes_the_maneuver_and_refuses_bad_input(tmp_path, capsys):

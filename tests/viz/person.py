@@ -73,6 +73,7 @@ class Person:
             keys.append("ArrowLeft" if up else "ArrowRight")
         return keys
 
+
 def in_the_bay(result: Any) -> None:
     """Assert that a drive ended with the trailer in the bay's space: near the goal, along it, nothing touched."""
     x, y, yaw = (result.trajectory[k][-1] for k in ("x_trailer", "y_trailer", "yaw_trailer"))

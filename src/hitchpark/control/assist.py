@@ -83,6 +83,11 @@ OVERRIDES = (
 #: Below this speed cap [m/s] the guard is said to stop the car rather than slow it.
 STOP_SPEED = 0.02
 
+#: Once the guard has stopped the car for an obstacle it keeps it stopped (a noisy reading that looks a little
+#: clearer must not let it creep on, a centimetre at a time) until the driver lets go of the pedal or turns the
+#: knob by this much from where it was at the stop: another request.
+RELEASE_KNOB = 0.2
+
 #: The widest virtual steer the steer law asks for [rad] (Eq. 57's bound; the front steer's limit is narrower).
 VIRTUAL_LIMIT = math.radians(80.0)
 
@@ -215,6 +220,7 @@ class KnobAssist:
         self.steer, self.speed = float(front_steer), float(rear_speed)
         self.curvature = 0.0
         self.in_flight: list[float] = [self.steer] * self.settings.delay_steps
+        self.stopped_at: float | None = None  # the knob when the guard stopped the car (None: not stopped)
 
     def curvature_of(self, knob: float) -> float:
         """The curvature [1/m] the knob asks for (before the limit to kappa_max)."""
@@ -252,7 +258,11 @@ class KnobAssist:
         want = min(speed_request, s.max_speed)
         steers = (float(measurement.front_steer), *self.in_flight, steer)
         jack_cap = self._jackknife_cap(h, steers)
-        guard_cap = self._guard_cap(measurement, steers, want)
+        if self.stopped_at is not None and (want <= 0.0 or abs(knob - self.stopped_at) >= RELEASE_KNOB):
+            self.stopped_at = None  # the driver let go, or asks for another path: the guard looks again
+        guard_cap = 0.0 if self.stopped_at is not None else self._guard_cap(measurement, steers, want)
+        if guard_cap <= STOP_SPEED and want > 0.0 and self.stopped_at is None:
+            self.stopped_at = knob
         speed = min(want, jack_cap, guard_cap)
         rear = clamp(-speed, self.speed - v.max_accel * dt, self.speed + v.max_accel * dt)
         rear = 0.0 if abs(rear) < 1e-9 else rear  # the ramp's rounding: a stop is a stop

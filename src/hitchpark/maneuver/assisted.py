@@ -26,6 +26,7 @@ import numpy as np
 
 from ..checks import InputError, check_instance, check_text
 from ..control.assist import AssistSettings, AssistStep, KnobAssist
+from ..control.estimator import Estimator, EstimatorSettings
 from ..model.plant import Command, Measurement, Plant, PlantSettings
 from ..model.scene import Scene
 from ..model.state import Pose, State, check_goal, check_state
@@ -214,7 +215,7 @@ def drive_assisted(
             min_clearance_m=settings.success.min_clearance_m,
             margin_m=settings.process.guard_margin_m,
         )
-    loop = assisted_loop(vehicle, start, goal, plant, assist.dt, profile.duration + 60.0)
+    loop = assisted_loop(vehicle, start, goal, plant, assist.dt, profile.duration + 60.0, settings.estimator)
     stage = AssistStage(KnobAssist(vehicle, assist, scene), profile)
     ended = run_stage(loop, 0, stage)
     if loop.outcome is None:
@@ -223,11 +224,20 @@ def drive_assisted(
 
 
 def assisted_loop(
-    vehicle: VehicleTrailer, start: State, goal: Pose, plant: PlantSettings, dt: float, max_time: float
+    vehicle: VehicleTrailer,
+    start: State,
+    goal: Pose,
+    plant: PlantSettings,
+    dt: float,
+    max_time: float,
+    estimator: EstimatorSettings | None = None,
 ) -> ClosedLoop:
-    """The closed loop of an assisted drive: a plant from ``start``, recording the assist's columns."""
+    """The closed loop of an assisted drive: a plant from ``start``, recording the assist's columns; the readings
+    through an :class:`~hitchpark.control.estimator.Estimator` where ``estimator`` filters (as in a maneuver)."""
     car = Plant(plant, vehicle, start, dt)
     loop = ClosedLoop(car, goal, plant.delay_steps, max_time, vehicle.max_steer_rate, vehicle.max_accel)
+    if estimator is not None and estimator.filters:
+        loop.estimator = Estimator(vehicle, estimator, dt)
     loop.extras = {c: [] for c in ASSIST_COLUMNS}
     return loop
 

@@ -40,7 +40,7 @@ class LiveDrive:
             min_clearance_m=s.success.min_clearance_m,
             margin_m=s.process.guard_margin_m,
         )
-        self.loop = assisted_loop(sc.vehicle, sc.start, sc.goal, sc.plant, self.settings.dt, self.max_time)
+        self.loop = assisted_loop(sc.vehicle, sc.start, sc.goal, sc.plant, self.settings.dt, self.max_time, s.estimator)
         self.assist = KnobAssist(sc.vehicle, self.settings, sc.scene)
         # The profile is a placeholder: the stage is used for its record (kind, controller), the knob comes live.
         self.stage = AssistStage(self.assist, KnobProfile(np.zeros(1), np.zeros(1), np.zeros(1)))
@@ -72,7 +72,7 @@ class LiveDrive:
         if loop.out_of_time():
             self.ending = Outcome.TIMEOUT
             return self.view(None)
-        m = plant.sense()
+        m = loop.sense()
         self.knob = knob
         step = self.assist.step(m, knob, 0.0 if self.stopping else speed_request)
         if not loop.step(0, m, loop.limited(step.command), step):
