@@ -32,6 +32,7 @@ from ..model.state import Pose, State
 from ..model.vehicle import VehicleTrailer
 from ..ocp.full import FullParkingProblem
 from ..ocp.settings import NMPCSettings
+from ..solvers.casadi_patches import mark_unused_arguments
 from ..solvers.riccati import RICCATI_SOURCE, riccati_standalone
 from ..solvers.transcription import make_transcription
 
@@ -230,11 +231,7 @@ def _example_files(spec: ExportSpec) -> dict[str, str]:
     named = ca.Function("hitchpark_example_plant", [*plant.sx_in()], [*plant.call(plant.sx_in())])
     generator = ca.CodeGenerator("example_plant.c", {"main": False, "with_header": False})
     generator.add(named)
-    code = generator.dump()
-    used = "  (void) arg; (void) res; (void) iw; (void) w; (void) mem;\n"
-    code = code.replace("casadi_real* w, int mem) {\n", "casadi_real* w, int mem) {\n" + used).replace(
-        "_release(int mem) {\n", "_release(int mem) {\n  (void) mem;\n"
-    )
+    code = mark_unused_arguments(generator.dump())
     v, s = spec.vehicle, spec.nmpc
     values = {
         "EX_START_X": spec.start.x,

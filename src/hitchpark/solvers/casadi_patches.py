@@ -9,8 +9,8 @@ the warm start of its multipliers. These depend on how a CasADi version lays out
   (:mod:`.stagewise`) instead of CasADi's, written over the whole horizon.
 - :func:`report_sqp_failure`: the generated sqpmethod returns 1 when its iterations did not converge
   (CasADi 3.8's returns 0 however they end).
-- :func:`mark_unused_arguments`: the stage functions written for ``hitchpark export`` mark the arguments they
-  do not use, so that the package compiles under ``-Wall -Wextra -Werror``.
+- :func:`mark_unused_arguments`: the stage functions and the example's plant written for ``hitchpark export``
+  mark the arguments they do not use, so that the package compiles under ``-Wall -Wextra -Werror``.
 
 Each checks the layout it edits and gives up (None, or RuntimeError) where it differs; all of them give up on
 a CasADi whose major.minor is not in :data:`TESTED_CASADI`, the versions the test suite runs on
