@@ -10,8 +10,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from hitchpark.control import MultipleShooting, NMPCSettings, SingleShooting, TrailerParkingProblem, make_transcription
+from hitchpark.control import NMPCSettings
 from hitchpark.model import VehicleTrailer, front_steer_from_virtual, trailer_rhs, virtual_steer_bounds
+from hitchpark.ocp.trailer import TrailerParkingProblem
+from hitchpark.solvers.transcription import MultipleShooting, SingleShooting, make_transcription
 
 # Table 4.
 Q4 = np.diag([1.0, 10.0, 10.0])
