@@ -72,8 +72,9 @@ def reach_settings(settings: PlannerSettings) -> PlannerSettings:
 
 @dataclass(frozen=True)
 class GoalReach:
-    """A flood's result (see the module text). ``states`` (n, 4): the configurations the finest flood reached,
-    the goal first; ``closed``: every grid's flood ran out; ``expanded``: expansions over all grids."""
+    """A flood's result (see the module text). ``closed``: every grid's flood ran out; ``states`` (n, 4): the
+    configurations the last flood reached, the goal first (where closed, the finest grid's, whose cells
+    :meth:`holds` looks in); ``expanded``: expansions over all grids."""
 
     states: np.ndarray
     closed: bool
