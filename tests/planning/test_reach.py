@@ -12,7 +12,7 @@ from hitchpark.maneuver.scenario import builtin_scenario, load_scenario
 from hitchpark.model import Obstacle, Pose, Scene, State, VehicleTrailer
 from hitchpark.model.collision import swept_clearance
 from hitchpark.planning import PlannerSettings, cache, plan, reach
-from hitchpark.planning.prepare import prepare, scene_bounds
+from hitchpark.planning.prepare import prepare, reach_settings, scene_bounds
 
 CLEARANCE = 0.3  # the planned process's
 
@@ -83,7 +83,7 @@ def test_the_reach_is_read_back_from_disk_the_same(pocket, tmp_path, monkeypatch
     scene, found = pocket
     monkeypatch.setattr(cache, "cache_dir", lambda: str(tmp_path))
     reach.goal_reach.cache_clear()
-    settings = reach.reach_settings(_settings())
+    settings = reach_settings(_settings())
     bounds = scene_bounds(VEHICLE, GOAL, scene, settings)
     built = reach.goal_reach(VEHICLE, GOAL, scene, settings, bounds)
     assert len(list(Path(tmp_path).glob("planner-reach-*.npz"))) == 1

@@ -14,6 +14,7 @@ import queue
 import shutil
 import threading
 from pathlib import Path
+from typing import Any
 
 import pytest
 from browser import Page, launched
@@ -28,29 +29,41 @@ from hitchpark.viz.viewer import write_viewer
 pytest.importorskip("aiohttp", reason="hitchpark drive needs aiohttp: pip install -e '.[drive]'")
 
 
-@pytest.mark.slow
-def test_a_person_holds_full_left_knob_and_stops_with_escape(tmp_path):
-    scenario = Scenario("straight <b>&</b>", State(0.0, 0.0, 0.0, 0.0))  # a name that is not HTML
+def _serve(scenario: Scenario, folder: Path, time_scale: float) -> tuple[str, threading.Thread, dict[str, object]]:
+    """``hitchpark drive`` of ``scenario`` on a free port in a thread, saving into ``folder``: its address, the
+    thread, and where its result lands (``"result"``)."""
     ready: queue.Queue[str] = queue.Queue()
     outcome: dict[str, object] = {}
 
     def serve() -> None:
         outcome["result"] = serve_drive(
-            scenario, save_into(tmp_path), port=0, time_scale=4.0, max_time=120.0, on_ready=ready.put
+            scenario, save_into(folder), port=0, time_scale=time_scale, max_time=120.0, on_ready=ready.put
         )
 
     server = threading.Thread(target=serve, daemon=True)
     server.start()
-    url = ready.get(timeout=60)
+    return ready.get(timeout=60), server, outcome
+
+
+def _open(page: Any, url: str) -> list[str]:
+    """Open the live page at ``url`` with every other request aborted, once it ticks; its console errors."""
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    page.route("**/*", lambda r: r.continue_() if r.request.url.startswith(url) else r.abort())
+    page.goto(url)
+    page.wait_for_function("() => window.hitchDrive && window.hitchDrive.ticks > 0", timeout=30_000)
+    return errors
+
+
+@pytest.mark.slow
+def test_a_person_holds_full_left_knob_and_stops_with_escape(tmp_path):
+    scenario = Scenario("straight <b>&</b>", State(0.0, 0.0, 0.0, 0.0))  # a name that is not HTML
+    url, server, outcome = _serve(scenario, tmp_path, time_scale=4.0)
     assert url.startswith("http://127.0.0.1:")
     with launched() as browser:
         page = browser.new_page()
-        errors: list[str] = []
-        page.on("pageerror", lambda e: errors.append(str(e)))
-        page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-        page.route("**/*", lambda r: r.continue_() if r.request.url.startswith(url) else r.abort())
-        page.goto(url)
-        page.wait_for_function("() => window.hitchDrive && window.hitchDrive.ticks > 0", timeout=30_000)
+        errors = _open(page, url)
         assert page.locator("h1").inner_text() == "hitchpark drive: straight <b>&</b>"  # shown as text, not markup
         for _ in range(12):
             page.keyboard.press("ArrowLeft")
@@ -94,26 +107,12 @@ def test_a_person_backs_the_bay_into_its_space_by_keys_recorded(tmp_path):
     """From the bay's start, the person of :mod:`person` at the page, in real time: ↑ held, ← and → a few
     presses a look at most, Esc at the end of the goal line. The trailer ends in its space, nothing touched; the
     saved drive opens in the viewer from disk with no error."""
-    ready: queue.Queue[str] = queue.Queue()
-    outcome: dict[str, object] = {}
-
-    def serve() -> None:
-        outcome["result"] = serve_drive(
-            builtin_scenario("bay"), save_into(tmp_path), port=0, time_scale=1.0, max_time=120.0, on_ready=ready.put
-        )
-
-    threading.Thread(target=serve, daemon=True).start()
-    url = ready.get(timeout=60)
+    url, server, outcome = _serve(builtin_scenario("bay"), tmp_path, time_scale=1.0)
     with launched() as browser:
         context = browser.new_context(viewport={"width": 1100, "height": 700})
         context.tracing.start(screenshots=True, snapshots=True)
         page = context.new_page()
-        errors: list[str] = []
-        page.on("pageerror", lambda e: errors.append(str(e)))
-        page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-        page.route("**/*", lambda r: r.continue_() if r.request.url.startswith(url) else r.abort())
-        page.goto(url)
-        page.wait_for_function("() => window.hitchDrive && window.hitchDrive.ticks > 0", timeout=30_000)
+        errors = _open(page, url)
         data = json.loads(page.locator("#hitchpark-data").text_content())
         person = Person(data["kappa_max"])
         page.keyboard.down("ArrowUp")
@@ -143,6 +142,8 @@ def test_a_person_backs_the_bay_into_its_space_by_keys_recorded(tmp_path):
         viewer = Page(browser, write_viewer(saved, tmp_path / "again.html"))  # what `hitchpark view` writes
         assert not viewer.errors and not viewer.blocked
         assert viewer.js("() => document.querySelectorAll('canvas, svg').length") > 0
+    server.join(timeout=30)
+    assert isinstance(outcome["result"], ManeuverResult) and outcome["result"].reason == "stopped_by_driver"
     assert (tmp_path / "person.zip").stat().st_size > 10_000  # the recording: Playwright's trace of the drive
     keep = os.environ.get("HITCHPARK_RECORD_DIR")
     if keep:

@@ -19,12 +19,12 @@ from .endgame import EndGame
 from .motion import PrimitiveBatch
 from .opening import OPENING_FORWARD_M
 from .raster import distance_grid
-from .reach import GoalReach, goal_reach, needs_reach, reach_settings
+from .reach import GoalReach, goal_reach, needs_reach
 from .refine import REFINE_PLANES, refine_solver
 from .settings import PlannerSettings
 from .tree import GoalTree, goal_tree
 
-__all__ = ["TREE_FIELDS", "prepare", "scene_bounds", "tree_settings", "uses_tree"]
+__all__ = ["REACH_FIELDS", "TREE_FIELDS", "prepare", "reach_settings", "scene_bounds", "tree_settings", "uses_tree"]
 
 
 def prepare(
@@ -86,8 +86,17 @@ TREE_FIELDS = (
 )
 
 
+#: The settings the goal's reach depends on (:mod:`.reach`): the tree's but its cost, and the forward cap's
+#: tolerance (read backwards, its reverse motions are forward runs the tracker steers).
+REACH_FIELDS = (*(name for name in TREE_FIELDS if name != "weight_steer_change"), "forward_length_tolerance")
+
+
 def tree_settings(settings: PlannerSettings) -> PlannerSettings:
     return PlannerSettings(**{name: getattr(settings, name) for name in TREE_FIELDS})
+
+
+def reach_settings(settings: PlannerSettings) -> PlannerSettings:
+    return PlannerSettings(**{name: getattr(settings, name) for name in REACH_FIELDS})
 
 
 def scene_bounds(

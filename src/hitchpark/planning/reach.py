@@ -38,7 +38,7 @@ from .raster import distance_grid
 from .settings import REFINEMENTS, PlannerSettings, finer
 from .tree import GoalTree, cell_key, tree_cache_key
 
-__all__ = ["REACH_CHECK_M", "REACH_NODES", "GoalReach", "goal_reach", "needs_reach", "reach_settings"]
+__all__ = ["REACH_CHECK_M", "REACH_NODES", "GoalReach", "goal_reach", "needs_reach"]
 
 #: The flood is run where the goal tree's farthest node is within this of the goal [m of trailer axle].
 REACH_CHECK_M = 10.0
@@ -48,26 +48,6 @@ REACH_NODES = 2000
 
 #: Nodes expanded in one call of the compiled primitives.
 REACH_BATCH = 8
-
-#: The settings a flood depends on (the others are reset).
-REACH_FIELDS = (
-    "xy_resolution_m",
-    "yaw_bins",
-    "hitch_bins",
-    "primitive_length_m",
-    "sample_step_m",
-    "steer_samples",
-    "forward_length_tolerance",
-    "obstacle_virtual_limit",
-    "hitch_margin",
-    "min_clearance_m",
-    "collision_cell_m",
-    "search_margin_m",
-)
-
-
-def reach_settings(settings: PlannerSettings) -> PlannerSettings:
-    return PlannerSettings(**{name: getattr(settings, name) for name in REACH_FIELDS})
 
 
 @dataclass(frozen=True)
@@ -193,8 +173,8 @@ def goal_reach(
     settings: PlannerSettings,
     bounds: tuple[float, float, float, float],
 ) -> GoalReach:
-    """The :class:`GoalReach` of these (``settings``: :func:`reach_settings`), built once: kept in the process and
-    on disk (:mod:`.cache`)."""
+    """The :class:`GoalReach` of these (``settings``: :func:`~.prepare.reach_settings`), built once: kept in the
+    process and on disk (:mod:`.cache`)."""
     key = tree_cache_key("goal-reach", vehicle, goal, scene, settings, bounds)
     arrays = cached_arrays(
         f"planner-reach-{key}",
