@@ -59,7 +59,7 @@ def _open(page: Any, url: str) -> list[str]:
 @pytest.mark.slow
 def test_a_person_holds_full_left_knob_and_stops_with_escape(tmp_path):
     scenario = Scenario("straight <b>&</b>", State(0.0, 0.0, 0.0, 0.0))  # a name that is not HTML
-    url, server, outcome = _serve(scenario, tmp_path, time_scale=4.0)
+    url, server, outcome = _serve(scenario, tmp_path, time_scale=2.0)  # 50 ms a tick: Esc within one, loaded
     assert url.startswith("http://127.0.0.1:")
     with launched() as browser:
         page = browser.new_page()
