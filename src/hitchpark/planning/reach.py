@@ -145,6 +145,14 @@ def _flood(
     return np.array(states)[:, :4], True, expanded
 
 
+def _grids(settings: PlannerSettings) -> list[PlannerSettings]:
+    """The search's grid and each finer one a search that exhausts its grid goes on to, coarsest first."""
+    grids = [settings]
+    for _ in range(REFINEMENTS):
+        grids.append(finer(grids[-1]))
+    return grids
+
+
 def _grow(
     vehicle: VehicleTrailer,
     goal: Pose,
@@ -154,10 +162,7 @@ def _grow(
 ) -> dict[str, np.ndarray]:
     screen = Screen(vehicle, scene, distance_grid(scene, bounds, settings.collision_cell_m), settings.min_clearance_m)
     total = 0
-    for refinement in range(REFINEMENTS + 1):
-        grid = settings
-        for _ in range(refinement):
-            grid = finer(grid)
+    for grid in _grids(settings):
         states, ran_out, expanded = _flood(vehicle, goal, screen, grid)
         total += expanded
         if not ran_out:
@@ -181,14 +186,11 @@ def goal_reach(
         ("states", "closed", "expanded"),
         lambda: _grow(vehicle, goal, scene, settings, bounds),
     )
-    finest = settings
-    for _ in range(REFINEMENTS):
-        finest = finer(finest)
     return GoalReach(
         states=arrays["states"],
         closed=bool(arrays["closed"]),
         expanded=int(arrays["expanded"]),
-        settings=finest,
+        settings=_grids(settings)[-1],
         max_hitch=vehicle.max_hitch,
     )
 
