@@ -216,7 +216,7 @@ def test_the_library_needs_nothing_but_libm_and_the_clock_it_names(random_files,
 def test_the_example_runs_clean_under_the_address_and_undefined_sanitizers(random_files, tmp_path, c_compiler):
     probe = tmp_path / "probe.c"
     probe.write_text("int main(void) { return 0; }\n")
-    sanitize = ["-g", "-O1", "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"]
+    sanitize = ["-g", "-O0", "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"]
     if subprocess.run([c_compiler, *sanitize, str(probe), "-o", str(tmp_path / "probe")]).returncode != 0:
         pytest.skip(f"{c_compiler} builds no sanitized program on this machine")
     folder = tmp_path / "pkg"

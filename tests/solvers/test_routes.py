@@ -412,11 +412,13 @@ def test_a_plant_with_a_compiled_step_pickles_and_steps_the_same(jit_cache):
 def test_compiling_the_planners_rollouts_changes_nothing(jit_cache):
     """On a cold cache the planner's batch functions compile (seconds) before its safety net's clock starts:
     the first plan is the plan a warm cache gives."""
+    from hitchpark import native
     from hitchpark.model.state import State
     from hitchpark.planning import PlannerSettings, plan
 
     cache, _ = jit_cache
     assert not cache.exists()
+    native._native.cache_clear()  # as in a fresh process: functions another test loaded are loaded again
     settings = PlannerSettings()
     start = State(12.0, 2.0, math.radians(10.0), 0.0)
     cold = plan(VehicleTrailer(), start, settings=settings)
@@ -453,6 +455,7 @@ def test_nothing_compiles_once_the_planners_clock_runs_among_obstacles(jit_cache
 
     monkeypatch.setattr(planner, "prepare", prepare)
     monkeypatch.setattr(native, "cached_library", cached)
+    native._native.cache_clear()  # as in a fresh process: functions another test loaded are loaded again
     scenario = builtin_scenario("driveway")
     margin = scenario.settings.success.min_clearance_m + scenario.settings.process.plan_margin_m
     settings = replace(scenario.settings.planner, min_clearance_m=margin)
