@@ -39,11 +39,16 @@ def test_every_tree_path_is_a_reverse_run_into_the_goal_that_keeps_clear(drivewa
     """Read backwards, each node's path is a motion of the full model in reverse (Eqs. 19-24 at v = -1, the
     front steer of each sample), ends at the goal, keeps the hitch limit and the exact clearance."""
     sc, grown = driveway
-    v = sc.vehicle
     assert len(grown.states) > 200
+    _assert_reverse_runs_into_the_goal(sc, grown)
+
+
+def _assert_reverse_runs_into_the_goal(sc, grown) -> None:
+    v = sc.vehicle
     rng = np.random.default_rng(3)
     for node in rng.choice(np.arange(1, len(grown.states)), size=12, replace=False):
         path = grown.path(int(node))
+        assert np.all(np.isfinite(path))
         np.testing.assert_allclose(path[-1, :4], [sc.goal.x, sc.goal.y, sc.goal.yaw, 0.0], atol=1e-12)
         np.testing.assert_allclose(path[0], grown.states[node])
         assert np.all(np.abs(path[:, 3]) <= v.max_hitch - sc.settings.planner.hitch_margin + 1e-12)
@@ -57,6 +62,57 @@ def test_every_tree_path_is_a_reverse_run_into_the_goal_that_keeps_clear(drivewa
         moves = np.diff(path[:, :4], axis=0)
         # (The last step, into the goal, is the root's first motion, steered at standstill: its own steer.)
         np.testing.assert_allclose(moves[:-1], step * slope[:-1], atol=2e-3)
+
+
+@pytest.mark.slow
+def test_a_tree_grown_from_a_shifted_trunk_holds_reverse_runs_into_the_goal(driveway):
+    """Grown from the end of a straight 0.5 m out of the goal (node 1, the straight; its rows before the
+    straight's samples are nan), every node's path is still a reverse run into the goal, the straight its end."""
+    sc, grown = driveway
+    shifted = tree.GoalTree(
+        sc.vehicle, sc.goal, sc.scene, grown.settings, (0.0, 0.0, 1.0, 1.0),
+        tree.GoalTree._grow(sc.vehicle, sc.goal, sc.scene, grown.settings, scene_bounds(
+            sc.vehicle, sc.goal, sc.scene, grown.settings), trunk=0.5),
+    )  # fmt: skip
+    assert len(shifted.states) > 200
+    trunk = shifted.path(1)
+    np.testing.assert_allclose(trunk[:, 0], np.linspace(0.5, 0.0, 6), atol=1e-12)  # along the goal line, yaw 0
+    np.testing.assert_array_equal(trunk[:, 1:], 0.0)
+    assert np.all(shifted.parent[2:] > 0)  # every run in ends with the trunk
+    _assert_reverse_runs_into_the_goal(sc, shifted)
+
+
+def test_a_stunted_tree_is_grown_again_from_shifted_trunks_and_the_largest_kept(driveway, monkeypatch):
+    """A tree that never leaves the goal line (no node more than STUNTED_M off it) is grown again from straight
+    trunks of 1/3 and 2/3 of a primitive (the way out may turn between the branches a primitive apart); the
+    tree of the most nodes is kept, the goal's own on a tie. A tree that leaves the line is grown once."""
+    sc, grown = driveway
+    s = grown.settings  # primitives of 1.5 m sampled every 0.1 m: trunks of 0.5 and 1.0 m
+
+    def fake(sizes, across):
+        def grow(vehicle, goal, scene, settings, bounds, trunk=0.0):
+            calls.append(round(trunk, 9))
+            n = sizes[len(calls) - 1]
+            states = np.zeros((n, 5))
+            states[:, 0] = np.arange(n)
+            states[-1, 1] = across[len(calls) - 1]
+            return {"states": states, "parent": np.arange(-1, n - 1), "cost": np.arange(n, dtype=float),
+                    "samples": np.zeros((n, s.samples, 5))}  # fmt: skip
+
+        return grow
+
+    cases = [  # sizes and how far the last node is off the line, per growth; trunks grown; nodes kept
+        ((5, 7, 6), (1.0, 3.0, 3.0), [0.0, 0.5, 1.0], 7),
+        ((5, 5, 4), (0.5, 2.0, 2.0), [0.0, 0.5, 1.0], 5),
+        ((5, 7, 9), (1.2, 3.0, 3.0), [0.0], 5),
+    ]
+    for sizes, across, trunks, kept in cases:
+        calls: list[float] = []
+        monkeypatch.setattr(tree.GoalTree, "_grow", staticmethod(fake(sizes, across)))
+        arrays = tree.GoalTree._grown(sc.vehicle, sc.goal, sc.scene, s, (0.0, 0.0, 1.0, 1.0))
+        assert calls == trunks and len(arrays["states"]) == kept
+        if kept == 5:
+            assert arrays["states"][-1, 1] == across[0]  # the goal's own
 
 
 def test_a_tree_shot_that_comes_onto_its_tree_path_is_handed_off_to_it(driveway):
