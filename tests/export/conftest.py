@@ -49,9 +49,11 @@ def library(random_files: dict[str, str], tmp_path_factory: pytest.TempPathFacto
 
 @pytest.fixture(scope="module")
 def compiled_in_process(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    """Compilation on for the in-process controller (its riccati_c), into one cache for the module."""
+    """Compilation on for the in-process controller (its riccati_c) while the module runs, into one cache for the
+    session's modules (compiled once, loaded by the next)."""
     compiler_or_skip()
-    cache = tmp_path_factory.mktemp("cache")
+    cache = tmp_path_factory.getbasetemp() / "compiled-in-process"
+    cache.mkdir(exist_ok=True)
     saved = {k: os.environ.get(k) for k in ("HITCHPARK_JIT", "HITCHPARK_CACHE")}
     os.environ["HITCHPARK_JIT"], os.environ["HITCHPARK_CACHE"] = "1", str(cache)
     try:

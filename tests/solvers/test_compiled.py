@@ -59,10 +59,11 @@ def test_compiled_matches_uncompiled_and_is_cached(jit_cache, monkeypatch):
 def test_a_broken_cache_entry_is_rebuilt(jit_cache):
     cache, _ = jit_cache
     vehicle = VehicleTrailer()
-    make_nmpc(vehicle, NMPCSettings(solver="fatrop", jit=True))
+    settings = NMPCSettings(kind="paper", solver="fatrop", jit=True)  # the smaller OCP: compiled twice here
+    make_nmpc(vehicle, settings)
     (entry,) = cache.iterdir()
     (entry / "solver.casadi").write_text("cut short")
-    rebuilt = make_nmpc(vehicle, NMPCSettings(solver="fatrop", jit=True))
+    rebuilt = make_nmpc(vehicle, settings)
     assert _plans(rebuilt, [(8.0, 3.0, 0.5, 0.1)])[0].ok
     assert (entry / "solver.casadi").stat().st_size > 1000
 

@@ -62,8 +62,10 @@ def test_shifted_multipliers_move_each_stage_on_by_a_step_and_hold_the_last():
 
 
 @pytest.mark.slow
-def test_fatrop_started_from_its_own_optimum_and_multipliers_ends_there_in_fewer_iterations(jit_cache):
+def test_fatrop_started_from_its_own_optimum_and_multipliers_ends_there_in_fewer_iterations(jit_cache, monkeypatch):
+    monkeypatch.setenv("HITCHPARK_JIT", "0")  # the problems are recorded uncompiled (they need no multipliers) ...
     controller, problems, _ = _recorded("full", 2)
+    monkeypatch.setenv("HITCHPARK_JIT", "1")  # ... and the solver under test is compiled
     tr = controller.transcription
     solver = make_solver("fatrop_c", tr.nlp, list(tr.lbg == tr.ubg), transcription=tr)
     assert isinstance(solver, GeneratedNLP) and solver.warm_duals and takes_duals(solver)
