@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
-from hitchpark.app.sil import run_sil
+from hitchpark.app.sil import run_sil, sil_settings
 from hitchpark.maneuver.scenario import BUILTIN_ORDER, builtin_scenario
+from hitchpark.model.plant import load_plant
+
+FAULTS = Path(__file__).parents[2] / "benchmarks" / "plants" / "faults_long.toml"
 
 
 @pytest.mark.slow
@@ -20,6 +25,19 @@ def test_sil_equals_in_process_on_the_papers_scenarios(name, library, compiled_i
     assert report["c_steps"] > 0 and report["c_step_time_ns"]["median"] > 0
     assert 0 < report["workspace_bytes"] <= report["workspace_bound_bytes"]
     assert report["library_bytes"] > 0
+
+
+@pytest.mark.slow
+def test_sil_equals_in_process_on_the_fault_plant_where_the_solver_fails(library, compiled_in_process):
+    """A delay, hitch noise and lengths 10% longer: the solver fails at a step of the random scenario, and both
+    controllers retry from the cold start (the in-process one as exported, without IPOPT), to the bit."""
+    scenario = builtin_scenario("random")
+    assert sil_settings(scenario.settings).nmpc.fallback_solver is None
+    report = run_sil(scenario, plant=load_plant(FAULTS), library=library).to_dict()
+    assert report["plant"]["delay_steps"] == 1 and report["plant"]["hitch_noise_std_deg"] == 0.5
+    assert report["exported"]["stage_ends"][0].startswith("solver:")  # the first stage ends where the solver fails
+    assert report["same_outcome"] and report["exported"]["outcome"] == "parked"
+    assert report["max_command_difference"] == 0.0 and report["max_state_difference"] == 0.0
 
 
 def test_sil_refuses_a_scene_of_obstacles():

@@ -5,9 +5,9 @@ The package is the controller of one vehicle and one set of NMPC settings: hitch
 stage functions CasADi writes for that OCP, and the controller's tick around the solve
 (``package/hitchpark_nmpc.c``: the measurement into the goal's frame, the commands in flight predicted out, the
 warm start, the bounds, the command), the steps of :class:`~hitchpark.control.nmpc.FullNMPC` in the same
-order and arithmetic. What it leaves out: the fallback solver (IPOPT, which the in-process controller asks when
-the structured solver fails), the obstacle OCP and the tracking OCP (``hitchpark sil`` measures what that
-changes). :func:`package_files` makes the files, :func:`write_package` writes them.
+order and arithmetic. What it leaves out: the fallback solver (IPOPT, which the in-process controller asks by
+default when the structured solver fails; ``hitchpark sil`` compares with the in-process controller without it),
+the obstacle OCP and the tracking OCP. :func:`package_files` makes the files, :func:`write_package` writes them.
 """
 
 from __future__ import annotations

@@ -235,9 +235,12 @@ class ExportedNMPC(FullNMPC):
 
 def sil_settings(settings: ManeuverSettings, nmpc: NMPCSettings | None = None) -> ManeuverSettings:
     """A scenario's maneuver settings as SIL runs them: the full-model NMPC (``nmpc``, else the scenario's when it
-    is of the full kind, else the defaults) and the staged process."""
+    is of the full kind, else the defaults) as the package holds it, without a fallback solver (the package has
+    no IPOPT: where its solver fails it retries from the cold start, and so does the in-process controller
+    without one), and the staged process."""
     if nmpc is None:
         nmpc = settings.nmpc if settings.nmpc.kind == "full" else NMPCSettings()
+    nmpc = replace(nmpc, fallback_solver=None)
     return replace(settings, nmpc=nmpc, process=replace(settings.process, kind="staged"))
 
 
