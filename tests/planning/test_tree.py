@@ -102,9 +102,9 @@ def test_a_stunted_tree_is_grown_again_from_shifted_trunks_and_the_largest_kept(
         return grow
 
     cases = [  # sizes and how far the last node is off the line, per growth; trunks grown; nodes kept
-        ((5, 7, 6), (1.0, 3.0, 3.0), [0.0, 0.5, 1.0], 7),
-        ((5, 5, 4), (0.5, 2.0, 2.0), [0.0, 0.5, 1.0], 5),
-        ((5, 7, 9), (1.2, 3.0, 3.0), [0.0], 5),
+        ((5, 7, 6), (tree.STUNTED_M, 4.0, 4.0), [0.0, 0.5, 1.0], 7),
+        ((5, 5, 4), (0.5, 3.0, 3.0), [0.0, 0.5, 1.0], 5),
+        ((5, 7, 9), (tree.STUNTED_M + 0.2, 4.0, 4.0), [0.0], 5),
     ]
     for sizes, across, trunks, kept in cases:
         calls: list[float] = []
