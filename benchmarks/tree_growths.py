@@ -11,7 +11,6 @@ goal line. A tree grown once is the tree the code before the trunk grew: the sam
 from __future__ import annotations
 
 import argparse
-import math
 from dataclasses import replace
 from pathlib import Path
 
@@ -19,6 +18,7 @@ import numpy as np
 
 from hitchpark.maneuver.planned import planner_settings
 from hitchpark.maneuver.scenario import OBSTACLE_SUITE, PLACES_SUITE, builtin_scenario, load_scenario
+from hitchpark.model.state import goal_frame_position
 from hitchpark.planning import tree
 from hitchpark.planning.prepare import scene_bounds, tree_settings
 
@@ -47,8 +47,7 @@ def main() -> None:
             trunks.clear()
             bounds = scene_bounds(vehicle, sc.goal, sc.scene, settings)
             grown = tree.GoalTree(vehicle, sc.goal, sc.scene, settings, bounds)
-            g = sc.goal
-            across = -math.sin(g.yaw) * (grown.states[:, 0] - g.x) + math.cos(g.yaw) * (grown.states[:, 1] - g.y)
+            _, across = goal_frame_position(sc.goal, grown.states[:, 0], grown.states[:, 1])
             print(f"{sc.name:20s} {tolerance:9g} {len(trunks):7d} {len(grown.states):6d} {np.abs(across).max():16.2f}")
 
 

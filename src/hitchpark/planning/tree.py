@@ -40,7 +40,7 @@ from scipy.spatial import cKDTree
 
 from ..control.pure_pursuit import forward_steer_limit
 from ..model.scene import Scene
-from ..model.state import Pose
+from ..model.state import Pose, goal_frame_position
 from ..model.vehicle import VehicleTrailer
 from ..native import jit_available
 from .cache import cached_arrays
@@ -286,7 +286,7 @@ class GoalTree:
 
 def _stunted(states: np.ndarray, goal: Pose) -> bool:
     """Whether no tree node is farther than :data:`STUNTED_M` from the goal line."""
-    across = -math.sin(goal.yaw) * (states[:, 0] - goal.x) + math.cos(goal.yaw) * (states[:, 1] - goal.y)
+    _, across = goal_frame_position(goal, states[:, 0], states[:, 1])
     return bool(np.abs(across).max() <= STUNTED_M)
 
 
