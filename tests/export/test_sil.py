@@ -16,7 +16,8 @@ FAULTS = Path(__file__).parents[2] / "benchmarks" / "plants" / "faults_long.toml
 @pytest.mark.slow
 @pytest.mark.parametrize("name", BUILTIN_ORDER)
 def test_sil_equals_in_process_on_the_papers_scenarios(name, library, compiled_in_process):
-    report = run_sil(builtin_scenario(name), library=library).to_dict()
+    ipopt = name == "random"  # IPOPT's step time beside the C's, once
+    report = run_sil(builtin_scenario(name), library=library, ipopt=ipopt).to_dict()
     assert report["same_outcome"], report
     assert report["exported"]["outcome"] == "parked"
     assert report["rows"]["exported"] == report["rows"]["in_process"]
@@ -25,6 +26,12 @@ def test_sil_equals_in_process_on_the_papers_scenarios(name, library, compiled_i
     assert report["c_steps"] > 0 and report["c_step_time_ns"]["median"] > 0
     assert 0 < report["workspace_bytes"] <= report["workspace_bound_bytes"]
     assert report["library_bytes"] > 0
+    ratios = report["step_time_ratios"]
+    assert ratios["python_over_c"] > 0
+    if ipopt:  # a third maneuver, parked by IPOPT in-process: its step times
+        assert report["ipopt_step_ms"]["median"] > 0 and ratios["ipopt_over_c"] > 0
+    else:
+        assert report["ipopt_step_ms"] is None and "ipopt_over_c" not in ratios
 
 
 @pytest.mark.slow
@@ -33,7 +40,7 @@ def test_sil_equals_in_process_on_the_fault_plant_where_the_solver_fails(library
     controllers retry from the cold start (the in-process one as exported, without IPOPT), to the bit."""
     scenario = builtin_scenario("random")
     assert sil_settings(scenario.settings).nmpc.fallback_solver is None
-    report = run_sil(scenario, plant=load_plant(FAULTS), library=library).to_dict()
+    report = run_sil(scenario, plant=load_plant(FAULTS), library=library, ipopt=False).to_dict()
     assert report["plant"]["delay_steps"] == 1 and report["plant"]["hitch_noise_std_deg"] == 0.5
     assert report["exported"]["stage_ends"][0].startswith("solver:")  # the first stage ends where the solver fails
     assert report["same_outcome"] and report["exported"]["outcome"] == "parked"

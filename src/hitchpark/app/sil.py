@@ -263,10 +263,20 @@ class SilReport:
     max_state_difference: float
     step_time_ns: dict[str, float]
     python_step_ms: dict[str, float]
+    ipopt_step_ms: dict[str, float] | None
     workspace_bytes: int
     workspace_bound_bytes: int
     library_bytes: int
     steps: int
+
+    def ratios(self) -> dict[str, float]:
+        """The in-process routes' median step time over the C step's: the Python route (the same solver, driven
+        from Python) and IPOPT (the reference solver, in-process)."""
+        c_ms = self.step_time_ns["median"] / 1e6
+        out = {"python_over_c": self.python_step_ms["median"] / c_ms}
+        if self.ipopt_step_ms is not None:
+            out["ipopt_over_c"] = self.ipopt_step_ms["median"] / c_ms
+        return out
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -281,6 +291,8 @@ class SilReport:
             "max_state_difference": self.max_state_difference,
             "c_step_time_ns": self.step_time_ns,
             "python_step_ms": self.python_step_ms,
+            "ipopt_step_ms": self.ipopt_step_ms,
+            "step_time_ratios": self.ratios(),
             "c_steps": self.steps,
             "workspace_bytes": self.workspace_bytes,
             "workspace_bound_bytes": self.workspace_bound_bytes,
@@ -302,6 +314,12 @@ def _summary(result: ManeuverResult) -> dict[str, Any]:
 
 def _column(result: ManeuverResult, name: str) -> np.ndarray:
     return np.asarray(result.trajectory[name], dtype=float)
+
+
+def _solve_ms(result: ManeuverResult) -> np.ndarray:
+    """The NMPC's time of each step it solved [ms] (its rows of ``solve_ms``)."""
+    ms = _column(result, "solve_ms")
+    return ms[np.isfinite(ms)]
 
 
 def _largest(a: ManeuverResult, b: ManeuverResult, columns: Sequence[str]) -> float:
@@ -332,13 +350,15 @@ def run_sil(
     controller: FullNMPC | None = None,
     scratch: Path | None = None,
     library: Path | None = None,
+    ipopt: bool = True,
 ) -> SilReport:
     """Park ``scenario`` with the exported controller and with the in-process one, and compare.
 
     ``plant``: the car driven (default: the scenario's). ``nmpc``: the NMPC settings (default: :func:`sil_settings`'s).
     ``controller``: a ready in-process controller of those settings to reuse. ``scratch``: where to build (default: a
     temporary folder, removed after). ``library``: a build of this vehicle's and these settings' package to use
-    (:func:`build_package`) instead of building one.
+    (:func:`build_package`) instead of building one. ``ipopt``: park a third time with IPOPT in-process, for
+    its step time (the reference the project's speed is measured against).
 
     Raises :class:`InputError` where the in-process controller would not run hitchpark's compiled solver
     (``HITCHPARK_JIT=0``, no compiler): there is then nothing to compare the C with.
@@ -360,8 +380,11 @@ def run_sil(
         library_bytes = built.stat().st_size
         c_result = park(scenario.vehicle, scenario.start, scenario.goal, settings, scenario.name, exported, plant)
     py_result = park(scenario.vehicle, scenario.start, scenario.goal, settings, scenario.name, in_process, plant)
-    py_ms = _column(py_result, "solve_ms")
-    py_ms = py_ms[np.isfinite(py_ms)]
+    ipopt_ms = None
+    if ipopt:
+        reference = replace(settings, nmpc=replace(settings.nmpc, solver="ipopt"))
+        ipopt_result = park(scenario.vehicle, scenario.start, scenario.goal, reference, scenario.name, plant=plant)
+        ipopt_ms = _percentiles(list(_solve_ms(ipopt_result)))
     return SilReport(
         scenario=scenario.name,
         plant=plant.to_dict(),
@@ -372,7 +395,8 @@ def run_sil(
         max_command_difference=_largest(c_result, py_result, COMMAND_COLUMNS),
         max_state_difference=_largest(c_result, py_result, STATE_COLUMNS),
         step_time_ns=_percentiles(exported.timing.step_ns),
-        python_step_ms=_percentiles(list(py_ms)),
+        python_step_ms=_percentiles(list(_solve_ms(py_result))),
+        ipopt_step_ms=ipopt_ms,
         workspace_bytes=exported.workspace_bytes,
         workspace_bound_bytes=bound,
         library_bytes=library_bytes,

@@ -65,4 +65,7 @@ def _cmd_sil(args: argparse.Namespace) -> int:
     print(f"C step: median {t['median'] / 1e3:.1f} us, p99 {t['p99'] / 1e3:.1f} us, max {t['max'] / 1e3:.1f} us "
           f"({data['c_steps']} steps); workspace {data['workspace_bytes']} bytes; library {data['library_bytes']} "
           "bytes")  # fmt: skip
+    ratios, py, ip = data["step_time_ratios"], data["python_step_ms"], data["ipopt_step_ms"]
+    print(f"in-process step, median: Python route {py['median']:.3f} ms ({ratios['python_over_c']:.1f}x the C), "
+          f"IPOPT {ip['median']:.3f} ms ({ratios['ipopt_over_c']:.0f}x)")  # fmt: skip
     return 0 if report.same_outcome and data["max_command_difference"] <= 1e-9 else 1
