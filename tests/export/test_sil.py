@@ -47,6 +47,21 @@ def test_sil_equals_in_process_on_the_fault_plant_where_the_solver_fails(library
     assert report["max_command_difference"] == 0.0 and report["max_state_difference"] == 0.0
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("plant", [None, FAULTS], ids=["ideal", "faults"])
+def test_sil_equals_in_process_tracking_the_planners_path(plant, library, compiled_in_process):
+    """The planned process: the planner's path, its forward segment tracked in Python, its reverse one by the NMPC
+    tracking the path (the package's tracking OCP and the path's reference in C), to the bit."""
+    scenario = builtin_scenario("random")
+    report = run_sil(scenario, plant=plant and load_plant(plant), library=library, ipopt=False, process="planned")
+    report = report.to_dict()
+    assert report["paths_followed"] == 1  # one reverse stage, tracking its path
+    assert report["exported"]["stage_ends"] == ["repositioned", "stopped"]
+    assert report["same_outcome"] and report["exported"]["outcome"] == "parked"
+    assert report["rows"]["exported"] == report["rows"]["in_process"] > 300
+    assert report["max_command_difference"] == 0.0 and report["max_state_difference"] == 0.0
+
+
 def test_sil_refuses_a_scene_of_obstacles():
     with pytest.raises(ValueError, match="open space"):
         run_sil(builtin_scenario("driveway"))

@@ -2,12 +2,14 @@
 
 The package is the controller of one vehicle and one set of NMPC settings: hitchpark's own solver
 (:data:`~hitchpark.solvers.riccati.RICCATI_SOURCE`, copied as it is: the very C of the in-process route), the
-stage functions CasADi writes for that OCP, and the controller's tick around the solve
-(``package/hitchpark_nmpc.c``: the measurement into the goal's frame, the commands in flight predicted out, the
-warm start, the bounds, the command), the steps of :class:`~hitchpark.control.nmpc.FullNMPC` in the same
-order and arithmetic. What it leaves out: the fallback solver (IPOPT, which the in-process controller asks by
-default when the structured solver fails; ``hitchpark sil`` compares with the in-process controller without it),
-the obstacle OCP and the tracking OCP. :func:`package_files` makes the files, :func:`write_package` writes them.
+stage functions CasADi writes for each of its OCPs (:data:`OCPS`: parking at the goal, and tracking a planned
+path to it), and the controller's tick around the solve (``package/hitchpark_nmpc.c``: the measurement into the
+goal's frame, the commands in flight predicted out, the path's reference; ``package/hitchpark_nmpc_ocp.inc``,
+compiled once per OCP: the warm start, the bounds, the solve cascade), the steps of
+:class:`~hitchpark.control.nmpc.FullNMPC` in the same order and arithmetic. What it leaves out: the fallback
+solver (IPOPT, which the in-process controller asks by default when the structured solver fails; ``hitchpark
+sil`` compares with the in-process controller without it) and the obstacle OCP. :func:`package_files` makes the
+files, :func:`write_package` writes them.
 """
 
 from __future__ import annotations
@@ -36,14 +38,29 @@ from ..solvers.casadi_patches import mark_unused_arguments
 from ..solvers.riccati import RICCATI_SOURCE, riccati_standalone
 from ..solvers.transcription import make_transcription
 
-__all__ = ["PACKAGE_FILES", "ExportSpec", "package_files", "workspace_bound", "write_package"]
+__all__ = [
+    "OCPS",
+    "PACKAGE_FILES",
+    "ExportSpec",
+    "library_sources",
+    "package_files",
+    "workspace_bound",
+    "write_package",
+]
+
+#: The package's OCPs, by the name of their C files: (tracking a path, keeping clear of a scene). The order is the
+#: C's (``HPC_OCPS``).
+OCPS = {"park": (False, False), "track": (True, False)}
 
 #: The files of a package, relative to its folder (what ``hitchpark export`` owns there).
 PACKAGE_FILES = (
     "include/hitchpark_nmpc.h",
     "src/hitchpark_nmpc.c",
     "src/hitchpark_nmpc_config.h",
-    "src/hitchpark_nmpc_functions.c",
+    "src/hitchpark_nmpc_internal.h",
+    "src/hitchpark_nmpc_model.c",
+    "src/hitchpark_nmpc_ocp.inc",
+    *(f"src/hitchpark_nmpc_{part}_{name}.c" for name in OCPS for part in ("ocp", "functions")),
     "src/riccati_ipm.inc",
     "examples/main.c",
     "examples/example_plant.c",
@@ -55,8 +72,11 @@ PACKAGE_FILES = (
     "manifest.json",
 )
 
-#: The prefix of the generated functions' names (and so of their symbols).
+#: The prefix of the generated functions' names (and so of their symbols); an OCP's add its name.
 PREFIX = "hitchpark_nmpc_f_"
+
+#: Points of a path the package tracks at most (``HITCHPARK_NMPC_MAX_PATH``): 102 m at hitchpark's 5 cm.
+MAX_PATH = 2048
 
 
 @dataclass(frozen=True)
@@ -98,24 +118,35 @@ def _c(value: float) -> str:
     return f"({text})" if text.startswith("-") else text
 
 
-def workspace_bound(config: dict[str, int]) -> int:
-    """Bytes that hold the controller's struct on any usual ABI: each member rounded up to 8 bytes (no member
-    is aligned to more), pointers counted as 8, 8 more per struct for its end. The C checks it when it compiles."""
+def _r8(n: int) -> int:
+    return -(-n // 8) * 8
+
+
+def block_bound(config: dict[str, int]) -> int:
+    """Bytes that hold one OCP's block (its solver's work and arrays, ``hitchpark_nmpc_ocp.inc``) on any usual
+    ABI: each member rounded up to 8 bytes (no member is aligned to more), pointers counted as 8, 8 more per
+    struct for its end. The C checks it when it compiles."""
     N, nx, nu, nr = config["HP_N"], config["HP_NX"], config["HP_NU"], config["HP_NR"]
     nv, nra = nx + nu, max(nr, 1)
     nc = 2 * nr + 2 * nv
     nw, ng = (N + 1) * nv - nu, nx + N * nx + N * nr
-    r8 = lambda n: -(-n // 8) * 8  # noqa: E731
     reals = (
         3 * nv + nc + 3 * nc + 4 * nc + nc + 2 * nx + 2 + nv + 2 * nx + nx * nv + 2 * nra + nra * nx
         + 2 * nv * nv + nv + nx * nx + nx + nu * nu + nu * nx + 2 * nu + nx
     )  # fmt: skip
-    stage = 8 * reals + r8(nc) + 8
+    stage = 8 * reals + _r8(nc) + 8
     work = (N + 1) * stage + 8 * (config["HP_SZ_ARG"] + config["HP_SZ_RES"] + config["HP_SZ_IW"] + config["HP_SZ_W"])
-    work += 8 * nx + r8(nx) + 8 + 8 * nx * nx + 16 + 16 * (config["HP_MAX_ITER"] + 1) + 8 + 16 + 8 + 8
+    work += 8 * nx + _r8(nx) + 8 + 8 * nx * nx + 16 + 16 * (config["HP_MAX_ITER"] + 1) + 8 + 16 + 8 + 8
     n_par = nx + N * config["HP_NP"] + config["HP_H0"]
-    controller = 8 + work + 8 * (9 * nw + 6 * ng + n_par + nx + 4) + 5 * 8 + 8
-    return r8(controller)
+    return _r8(work + 8 * (7 * nw + 6 * ng + n_par + 2) + 16 + 8)
+
+
+def workspace_bound(blocks: dict[str, int], horizon: int, functions: dict[str, int], max_path: int) -> int:
+    """Bytes that hold the controller (``struct hitchpark_nmpc``): its shared part, the path, and each OCP's block
+    (``blocks``, by :func:`block_bound`), on any usual ABI as :func:`block_bound` counts."""
+    nw = (horizon + 1) * 8 - 2
+    shared = 8 * (nw + 6 + 6 * horizon + 2) + 8 + 8 * sum(functions.values()) + 8
+    return _r8(8 + shared + 16 + 16 + 8 + 8 + 8 * 6 * max_path + 8 * 5 + sum(map(_r8, blocks.values())) + 8)
 
 
 def _config_values(config: str) -> dict[str, int]:
@@ -127,16 +158,46 @@ def _config_values(config: str) -> dict[str, int]:
     return out
 
 
-def _functions(spec: ExportSpec) -> tuple[FullParkingProblem, Any, dict[str, ca.Function]]:
-    """The OCP, its transcription and the model's steps the controller calls besides the solver: one controller
-    sample (the commands in flight) and one prediction step (the cold start's rollout), as the in-process
-    controller builds them."""
+def _model_functions(spec: ExportSpec) -> dict[str, ca.Function]:
+    """The model's steps the controller calls besides the solver: one controller sample (the commands in flight)
+    and one prediction step (the cold start's rollout), as the in-process controller builds them."""
     problem = FullParkingProblem(spec.vehicle, spec.nmpc)
-    transcription = make_transcription(problem)
     x, u = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
     model = ca.Function(f"{PREFIX}model_step", [x, u], [problem.discrete_dynamics(x, u, spec.nmpc.dt)])
     predict = ca.Function(f"{PREFIX}predict_step", [x, u], [problem.discrete_dynamics(x, u)])
-    return problem, transcription, {"HPC_MODEL_STEP": model, "HPC_PREDICT_STEP": predict}
+    return {"HPC_MODEL_STEP": model, "HPC_PREDICT_STEP": predict}
+
+
+def _ocp_files(spec: ExportSpec, name: str, tracking: bool) -> tuple[dict[str, int], dict[str, str]]:
+    """One OCP's definitions (its sizes) and its two C files: the solver and the tick for its sizes, and its stage
+    functions as CasADi writes them."""
+    transcription = make_transcription(FullParkingProblem(spec.vehicle, spec.nmpc, tracking=tracking))
+    try:
+        built = riccati_standalone(transcription, f"{PREFIX}{name}_", spec.nmpc.solver_options)
+    except RuntimeError as exc:
+        raise InputError(f"nmpc.solver_options are not accepted by riccati_c: {exc}") from None
+    assert built is not None  # multiple shooting, no path constraints
+    definitions, functions_c = built
+    title = "tracking a planned path to the goal" if tracking else "parking at the goal"
+    ocp = (
+        f"/* hitchpark_nmpc_ocp_{name}.c: the OCP {title} (generated by hitchpark {__version__}): its sizes,\n"
+        " * the solver and the controller's part of the tick, compiled for them. */\n"
+        '#include "hitchpark_nmpc_internal.h"\n'
+        + definitions
+        + f"#define HPC_OCP_TRACKING {int(tracking)}\n#define HPC_OCP_BYTES HPC_OCP_BYTES_{name}\n"
+        + "".join(f"#define HPC_OCP_{part.upper()} hpc_{name}_{part}\n" for part in ("cascade", "plan", "report"))
+        + '#include "riccati_ipm.inc"\n#include "hitchpark_nmpc_ocp.inc"\n'
+    )  # fmt: skip
+    files = {
+        f"src/hitchpark_nmpc_ocp_{name}.c": ocp,
+        f"src/hitchpark_nmpc_functions_{name}.c": '#include "hitchpark_nmpc_config.h"\n' + functions_c,
+    }
+    return _config_values(definitions), files
+
+
+def library_sources(files: dict[str, str]) -> list[str]:
+    """The package's C files of the library (not the example's), in a fixed order."""
+    return sorted(name for name in files if name.startswith("src/") and name.endswith(".c"))
 
 
 def _settings_text(spec: ExportSpec) -> dict[str, Any]:
@@ -156,15 +217,23 @@ def package_files(spec: ExportSpec) -> dict[str, str]:
     """Every file of the package, by its path in the package folder."""
     s, v = spec.nmpc, spec.vehicle
     assert s.prediction_dt is not None and s.horizon is not None
-    _, transcription, extra = _functions(spec)
-    try:
-        built = riccati_standalone(transcription, PREFIX, s.solver_options, extra)
-    except RuntimeError as exc:
-        raise InputError(f"nmpc.solver_options are not accepted by riccati_c: {exc}") from None
-    assert built is not None  # multiple shooting, no path constraints
-    solver_config, functions_c = built
-    values = _config_values(solver_config)
-    workspace = workspace_bound(values)
+    files: dict[str, str] = {}
+    sizes: dict[str, dict[str, int]] = {}
+    for name, (tracking, _) in OCPS.items():
+        sizes[name], ocp_files = _ocp_files(spec, name, tracking)
+        files.update(ocp_files)
+    model = _model_functions(spec)
+    generator = ca.CodeGenerator(f"{PREFIX}model.c", {"main": False, "with_header": False})
+    for function in model.values():
+        generator.add(function)
+    work = {
+        "HPC_FN_SZ_ARG": max(f.sz_arg() for f in model.values()),
+        "HPC_FN_SZ_RES": max(f.sz_res() for f in model.values()),
+        "HPC_FN_SZ_IW": max(max(f.sz_iw() for f in model.values()), 1),
+        "HPC_FN_SZ_W": max(max(f.sz_w() for f in model.values()), 1),
+    }
+    blocks = {name: block_bound(values) for name, values in sizes.items()}
+    workspace = workspace_bound(blocks, s.horizon, work, MAX_PATH)
     step = float(s.prediction_dt)
     ramp = max(1, round(0.5 * abs(s.speed_min) / (v.max_accel * step)))  # FullNMPC._cold_inputs
     constants = {
@@ -185,7 +254,13 @@ def package_files(spec: ExportSpec) -> dict[str, str]:
         f"{__version__}). */\n#ifndef HITCHPARK_NMPC_CONFIG_H\n#define HITCHPARK_NMPC_CONFIG_H\n"
         "#ifndef HITCHPARK_REAL\n#define HITCHPARK_REAL double\n#endif\n"
         "#define casadi_real HITCHPARK_REAL\n#define casadi_int long long int\n"
-        "/* the solver's (riccati_ipm.inc) */" + solver_config
+        f"/* the OCPs (hitchpark_nmpc_ocp_NAME.c), each one's block [bytes] */\n"
+        f"#define HPC_OCPS(X) {' '.join(f'X({name})' for name in OCPS)}\n"
+        + "".join(f"#define HPC_OCP_BYTES_{name} {size}\n" for name, size in blocks.items())
+        + f"#define HPC_N {s.horizon}\n"
+        + "/* the model's functions (hitchpark_nmpc_model.c) */\n"
+        + "".join(f"#define {k} {value}\n" for k, value in work.items())
+        + "".join(f"#define {macro} {function.name()}\n" for macro, function in model.items())
         + "/* the controller's (hitchpark_nmpc.c) */\n"
         + "".join(f"#define {k} {_c(value)}\n" for k, value in constants.items())
         + f"#define HPC_COLD_RAMP {ramp}\n#define HPC_WARM_DUALS {int(bool(s.warm_duals))}\n#endif\n"
@@ -197,29 +272,38 @@ def package_files(spec: ExportSpec) -> dict[str, str]:
         .replace("@PREDICTION_DT@", repr(step))
         .replace("@DT@", repr(float(s.dt)))
         .replace("@WORKSPACE_BYTES@", str(workspace))
+        .replace("@MAX_PATH@", str(MAX_PATH))
     )
-    files = {
-        "include/hitchpark_nmpc.h": header,
-        "src/hitchpark_nmpc.c": _template("hitchpark_nmpc.c"),
-        "src/hitchpark_nmpc_config.h": config,
-        "src/hitchpark_nmpc_functions.c": '#include "hitchpark_nmpc_config.h"\n' + functions_c,
-        "src/riccati_ipm.inc": RICCATI_SOURCE.read_text(encoding="utf-8"),
-        **_example_files(spec),
-        "cmake/arm-linux-gnueabihf.cmake": _template("arm-linux-gnueabihf.cmake"),
-        "CMakeLists.txt": _template("CMakeLists.txt"),
-        "Makefile": _template("Makefile"),
-    }
-    files["README.md"] = _readme(spec, workspace, values)
+    files.update(
+        {
+            "include/hitchpark_nmpc.h": header,
+            "src/hitchpark_nmpc.c": _template("hitchpark_nmpc.c"),
+            "src/hitchpark_nmpc_config.h": config,
+            "src/hitchpark_nmpc_internal.h": _template("hitchpark_nmpc_internal.h"),
+            "src/hitchpark_nmpc_ocp.inc": _template("hitchpark_nmpc_ocp.inc"),
+            "src/hitchpark_nmpc_model.c": '#include "hitchpark_nmpc_config.h"\n'
+            + mark_unused_arguments(generator.dump()),
+            "src/riccati_ipm.inc": RICCATI_SOURCE.read_text(encoding="utf-8"),
+            **_example_files(spec),
+            "cmake/arm-linux-gnueabihf.cmake": _template("arm-linux-gnueabihf.cmake"),
+        }
+    )
+    sources = " ".join(library_sources(files))
+    files["CMakeLists.txt"] = _template("CMakeLists.txt").replace("@SOURCES@", sources)
+    files["Makefile"] = _template("Makefile").replace("@SOURCES@", sources)
+    files["README.md"] = _readme(spec, workspace, sizes["park"])
     manifest = {
-        "format": "hitchpark-export/1",
+        "format": "hitchpark-export/2",
         "hitchpark": __version__,
         "casadi": ca.CasadiMeta.version(),
         "settings": _settings_text(spec),
+        "ocps": list(OCPS),
         "workspace_bytes": workspace,
-        "sizes": {k: values[k] for k in ("HP_N", "HP_NX", "HP_NU", "HP_MAX_ITER")},
+        "sizes": {**{k: sizes["park"][k] for k in ("HP_N", "HP_NX", "HP_NU", "HP_MAX_ITER")}, "MAX_PATH": MAX_PATH},
         "sha256": {name: hashlib.sha256(text.encode()).hexdigest() for name, text in sorted(files.items())},
     }
     files["manifest.json"] = json.dumps(manifest, indent=2, sort_keys=True, default=repr) + "\n"
+    assert sorted(files) == sorted(PACKAGE_FILES)
     return files
 
 

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import InputError
+from ..checks import InputError, check_choice, check_instance
 from ..control.nmpc import FullNMPC
 from ..control.step import ControlStep
 from ..maneuver.process import park
@@ -35,9 +35,10 @@ from ..model.scene import Scene
 from ..model.state import Pose, check_goal
 from ..model.vehicle import VehicleTrailer
 from ..native import resolved_compiler
+from ..ocp.reference import PathReference
 from ..ocp.settings import NMPCSettings
 from ..solvers.registry import takes_free_initial
-from .export import ExportSpec, copy_package, package_files
+from .export import ExportSpec, copy_package, library_sources, package_files
 
 __all__ = ["ExportedNMPC", "SilReport", "build_package", "run_sil", "sil_settings"]
 
@@ -88,7 +89,7 @@ def build_package(files: dict[str, str], folder: Path, compiler: str | None = No
         raise InputError("no C compiler found ($CC, else gcc): sil builds the exported package with one")
     copy_package(files, folder)
     library = folder / "libhitchpark_nmpc.so"
-    sources = [str(folder / "src" / name) for name in ("hitchpark_nmpc.c", "hitchpark_nmpc_functions.c")]
+    sources = [str(folder / name) for name in library_sources(files)]
     command = [compiler, *BUILD_FLAGS, f"-I{folder / 'include'}", *sources, "-lm", "-o", str(library)]
     done = subprocess.run(command, capture_output=True, text=True, check=False)
     if done.returncode != 0 or not library.is_file():
@@ -109,7 +110,7 @@ class ExportedNMPC(FullNMPC):
     """The exported controller (a compiled package) where the maneuver takes a :class:`FullNMPC`.
 
     It builds nothing of the in-process controller (no OCP, no solver): each call goes to the C. It parks at
-    the goal in open space only; :meth:`follow` a path or :meth:`keep_clear` of a scene it refuses.
+    the goal or tracks a path to it (:meth:`follow`), in open space: :meth:`keep_clear` of a scene it refuses.
     """
 
     def __init__(self, library: Path, vehicle: VehicleTrailer, settings: NMPCSettings):  # no super(): nothing built
@@ -138,6 +139,8 @@ class ExportedNMPC(FullNMPC):
         )
         lib.hitchpark_nmpc_prediction.argtypes = (ctypes.c_void_p, ctypes.POINTER(_REAL), ctypes.POINTER(_REAL))
         lib.hitchpark_nmpc_state.argtypes = (ctypes.c_void_p, ctypes.POINTER(_REAL))
+        lib.hitchpark_nmpc_follow.argtypes = (ctypes.c_void_p, ctypes.POINTER(_REAL), ctypes.c_int, _REAL, _REAL)
+        lib.hitchpark_nmpc_path_progress.argtypes = (ctypes.c_void_p, ctypes.POINTER(_REAL), ctypes.POINTER(_REAL))
         self.workspace_bytes = int(lib.hitchpark_nmpc_workspace_size())
         self._memory = (ctypes.c_double * (self.workspace_bytes // 8 + 1))()
         self._handle = lib.hitchpark_nmpc_init(self._memory, ctypes.sizeof(self._memory))
@@ -149,7 +152,8 @@ class ExportedNMPC(FullNMPC):
         self._plan_u = (_REAL * (self._n * 2))()
         self._x0 = (_REAL * 6)()
         self._last_steer = 0.0
-        self._reference = None
+        self._reference: PathReference | None = None
+        self.paths_followed = 0  # the paths the C was given to track
         self.timing = _Timing()
         self.recorder = None
 
@@ -157,10 +161,34 @@ class ExportedNMPC(FullNMPC):
         self._lib.hitchpark_nmpc_reset(self._handle, float(front_steer))
         self._last_steer = float(front_steer)
 
-    def follow(self, reference: Any) -> None:
+    @property
+    def reference(self) -> PathReference | None:
+        return self._reference
+
+    def follow(self, reference: PathReference | None) -> None:
+        """Track ``reference`` (its points, cruise speed and braking) in the C from now on; None: park at the goal."""
+        points = np.zeros((0, 5))
         if reference is not None:
-            raise InputError("the exported controller parks at the goal; it tracks no path")
-        self.reset(self._last_steer)
+            check_instance("reference", reference, PathReference, "hitchpark.control.PathReference(...)")
+            if reference.horizon != self._n or reference.dt != float(self.settings.prediction_dt or self.settings.dt):
+                raise InputError("the reference's horizon and step are not the exported controller's")
+            points = np.ascontiguousarray(reference.points, dtype=float)
+            reference.reset()
+        flat = (_REAL * max(1, points.size))(*points.ravel())
+        code = self._lib.hitchpark_nmpc_follow(self._handle, flat, len(points), reference.speed if reference else 0.0,
+                                               2.0 * reference.brake if reference else 0.0)  # fmt: skip
+        if code != 0:
+            raise InputError(f"the exported controller refused the path ({len(points)} points): code {code}")
+        self._reference = reference
+        self.paths_followed += reference is not None
+
+    def _progress(self) -> None:
+        """The C's nearest point on the path and the axle's distance from it, onto the Python reference (the stage
+        gives up on a path strayed from)."""
+        if self._reference is not None:
+            progress, deviation = _REAL(), _REAL()
+            self._lib.hitchpark_nmpc_path_progress(self._handle, ctypes.byref(progress), ctypes.byref(deviation))
+            self._reference.progress, self._reference.deviation = float(progress.value), float(deviation.value)
 
     def keep_clear(self, scene: Scene, clearance_m: float) -> None:
         if not scene.is_empty and self.settings.obstacle_planes > 0:
@@ -185,6 +213,7 @@ class ExportedNMPC(FullNMPC):
         m, g = self._inputs(measurement, check_goal(goal))
         steer, status = _REAL(), _Status()
         code = self._lib.hitchpark_nmpc_initial_steer(self._handle, m, g, ctypes.byref(steer), ctypes.byref(status))
+        self._progress()
         if code in (0, _E_SOLVER, 6, 7, 8):  # it solved, well or not: the controller was reset to the steer
             self._last_steer = float(measurement.front_steer)
         return float(steer.value) if code == 0 else None
@@ -196,6 +225,7 @@ class ExportedNMPC(FullNMPC):
         code = self._lib.hitchpark_nmpc_step(self._handle, m, g, commands, len(in_flight), out, ctypes.byref(status))
         if code in (1, 2, 9):  # a misuse of the API, not a controller's answer
             raise RuntimeError(f"hitchpark_nmpc_step: {status.message.decode()}")
+        self._progress()
         states, inputs = self._prediction()
         self._last_steer = float(out.front_steer)
         cost, ms = float(status.cost), status.solve_time_ns / 1e6
@@ -233,15 +263,21 @@ class ExportedNMPC(FullNMPC):
         )
 
 
-def sil_settings(settings: ManeuverSettings, nmpc: NMPCSettings | None = None) -> ManeuverSettings:
+def sil_settings(
+    settings: ManeuverSettings, nmpc: NMPCSettings | None = None, process: str | None = None
+) -> ManeuverSettings:
     """A scenario's maneuver settings as SIL runs them: the full-model NMPC (``nmpc``, else the scenario's when it
     is of the full kind, else the defaults) as the package holds it, without a fallback solver (the package has
     no IPOPT: where its solver fails it retries from the cold start, and so does the in-process controller
-    without one), and the staged process."""
+    without one). ``process``: ``"staged"`` or ``"planned"``; default the scenario's, which for the paper's
+    scenarios (their NMPC the paper's) is the paper's staged process."""
+    if process is None:
+        process = settings.process.resolved(settings.nmpc.kind)
+    check_choice("process", process, ("staged", "planned"))
     if nmpc is None:
         nmpc = settings.nmpc if settings.nmpc.kind == "full" else NMPCSettings()
     nmpc = replace(nmpc, fallback_solver=None)
-    return replace(settings, nmpc=nmpc, process=replace(settings.process, kind="staged"))
+    return replace(settings, nmpc=nmpc, process=replace(settings.process, kind=process))
 
 
 #: The columns compared: the commands, and the true state.
@@ -268,6 +304,7 @@ class SilReport:
     workspace_bound_bytes: int
     library_bytes: int
     steps: int
+    paths_followed: int
 
     def ratios(self) -> dict[str, float]:
         """The in-process routes' median step time over the C step's: the Python route (the same solver, driven
@@ -294,6 +331,7 @@ class SilReport:
             "ipopt_step_ms": self.ipopt_step_ms,
             "step_time_ratios": self.ratios(),
             "c_steps": self.steps,
+            "paths_followed": self.paths_followed,
             "workspace_bytes": self.workspace_bytes,
             "workspace_bound_bytes": self.workspace_bound_bytes,
             "library_bytes": self.library_bytes,
@@ -351,6 +389,7 @@ def run_sil(
     scratch: Path | None = None,
     library: Path | None = None,
     ipopt: bool = True,
+    process: str | None = None,
 ) -> SilReport:
     """Park ``scenario`` with the exported controller and with the in-process one, and compare.
 
@@ -358,12 +397,13 @@ def run_sil(
     ``controller``: a ready in-process controller of those settings to reuse. ``scratch``: where to build (default: a
     temporary folder, removed after). ``library``: a build of this vehicle's and these settings' package to use
     (:func:`build_package`) instead of building one. ``ipopt``: park a third time with IPOPT in-process, for
-    its step time (the reference the project's speed is measured against).
+    its step time (the reference the project's speed is measured against). ``process``: ``"staged"`` or
+    ``"planned"`` (default: :func:`sil_settings`'s); planned, the NMPC tracks the planner's path (the tracking OCP).
 
     Raises :class:`InputError` where the in-process controller would not run hitchpark's compiled solver
     (``HITCHPARK_JIT=0``, no compiler): there is then nothing to compare the C with.
     """
-    settings = sil_settings(scenario.settings, nmpc)
+    settings = sil_settings(scenario.settings, nmpc, process)
     plant = plant or scenario.plant
     if not scenario.scene.is_empty:
         raise InputError(f"scenario {scenario.name!r} has obstacles: the exported controller parks in open space only")
@@ -401,4 +441,5 @@ def run_sil(
         workspace_bound_bytes=bound,
         library_bytes=library_bytes,
         steps=len(exported.timing.step_ns),
+        paths_followed=exported.paths_followed,
     )

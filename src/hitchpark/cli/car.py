@@ -54,7 +54,7 @@ def _cmd_sil(args: argparse.Namespace) -> int:
     plant = _plant(args)
     if plant is not None:
         sc = replace(sc, plant=plant)
-    report = run_sil(sc)
+    report = run_sil(sc, process=args.process)
     data = report.to_dict()
     write_json(args.json, data)
     c, py = data["exported"], data["in_process"]

@@ -8,14 +8,17 @@
  *   3. a state that is not finite, or a hitch past max_hitch, is refused: a stop, the wheels held;
  *   4. the prediction grid: the first prediction step shortens by dt each sample until less than a
  *      sample of it is left, then the grid moves on a whole step (hitchpark's _next_first_step);
- *   5. the warm start: the last plan moved on as the grid moved, or, with none, reverse from standing
- *      with the acceleration at its limit, rolled out over the model; the multipliers moved alike;
- *   6. the solve (riccati_ipm.inc, the very solver of the in-process route), and when a warm-started
- *      solve fails, one more from the cold start;
+ *   5. tracking a path (hitchpark_nmpc_follow), the reference of each prediction step: the path's point
+ *      nearest the trailer axle moves on (never back), and from it the reference moves along the path at
+ *      the cruise speed, braking to stop at the goal (hitchpark.ocp.reference.PathReference.window); the
+ *      measured yaw onto the path's branch;
+ *   6. the OCP's solve cascade (hitchpark_nmpc_ocp.inc, one file per OCP: parking at the goal, tracking the
+ *      path): the warm start, the solve by riccati_ipm.inc (the very solver of the in-process route), and
+ *      when a warm-started solve fails, one more from the cold start;
  *   7. the first sample of the plan as the command: steer and speed moved at the planned rates for dt,
  *      within their limits; a stop when both the plan and the car are at rest.
  * The in-process controller has one more step that this package has not: when the structured solver
- * fails, it asks IPOPT before the cold retry. Where that happens the two differ (hitchpark sil counts it).
+ * fails, it asks IPOPT before the cold retry (hitchpark sil runs it without, to compare).
  *
  * No allocation, no I/O, no global mutable state: everything lives in the caller's workspace.
  */
@@ -27,38 +30,54 @@
 #endif
 #include <stddef.h>
 #include <stdint.h>
-#include "hitchpark_nmpc.h"
-#include "hitchpark_nmpc_config.h"
-#include "riccati_ipm.inc"
-
-int HPC_MODEL_STEP(const real** arg, real** res, casadi_int* iw, real* w, int mem);
-int HPC_PREDICT_STEP(const real** arg, real** res, casadi_int* iw, real* w, int mem);
+#include "hitchpark_nmpc_internal.h"
 
 #define HPC_MAGIC 0x4e4d5043UL
-#define HPC_NPAR (HP_NX + HP_N * HP_NP + HP_H0)
 #define HPC_PI 3.141592653589793
-#define HPC_STEER 4
-#define HPC_SPEED 5
 
-#if HP_NP != 0 || HP_NR != 0 || HP_H0 != 1 || HP_NX != 6 || HP_NU != 2
-#error "this controller is the full-model OCP of open space (no step parameters, no rows, the first step a parameter)"
-#endif
+/* An OCP's block: its solver's work and arrays (hitchpark_nmpc_ocp.inc), HPC_OCP_BYTES_name set aside. */
+#define HPC_BLOCK(name)     \
+  union {                   \
+    double align_double;    \
+    long long align_ll;     \
+    void* align_pointer;    \
+    unsigned char bytes[HPC_OCP_BYTES_##name]; \
+  } name;
 
 struct hitchpark_nmpc {
   unsigned long magic;
-  struct hp_work solver;
-  real w0[HP_NW], lbx[HP_NW], ubx[HP_NW], lbg[HP_NG], ubg[HP_NG], par[HPC_NPAR];
-  real lam_x0[HP_NW], lam_g0[HP_NG];
-  real x_out[HP_NW], f_out, g_out[HP_NG], lam_x[HP_NW], lam_g[HP_NG];
-  real last_w[HP_NW];                     /* the last plan, states and inputs (has_last) */
-  real last_lam_x[HP_NW], last_lam_g[HP_NG]; /* its multipliers (has_duals) */
-  real x0[HP_NX];                         /* the state the last step solved from */
-  real first_step, first_now, last_steer, cost;
-  int has_last, has_duals, solver_code, iterations, converged; /* converged: the last solve's */
+  struct hpc_shared sh;
+  hpc_real last_steer, cost;
+  int solver_code, iterations, converged; /* the last solve's */
+  int ocp;                                /* the OCP of the last solve (its plan) */
+  /* the path tracked (hitchpark_nmpc_follow; path_n 0: park at the goal), PathReference's */
+  int path_n;
+  hpc_real path[5][HITCHPARK_NMPC_MAX_PATH]; /* x, y, yaw, hitch, steer, parking frame */
+  hpc_real path_s[HITCHPARK_NMPC_MAX_PATH];  /* arc length */
+  hpc_real speed, brake, length, progress, deviation;
+  HPC_OCPS(HPC_BLOCK)
 };
+#undef HPC_BLOCK
+
+/* The OCPs, in the order of HPC_OCPS, and where each one's block lies. */
+#define HPC_INDEX(name) HPC_OCP_##name,
+enum { HPC_OCPS(HPC_INDEX) HPC_N_OCPS };
+#undef HPC_INDEX
+#define HPC_ENTRY(name) {hpc_##name##_cascade, hpc_##name##_plan, hpc_##name##_report},
+static const struct hpc_ocp hpc_ocps[HPC_N_OCPS] = {HPC_OCPS(HPC_ENTRY)};
+#undef HPC_ENTRY
+#define HPC_OFFSET(name) offsetof(struct hitchpark_nmpc, name),
+static const size_t hpc_offsets[HPC_N_OCPS] = {HPC_OCPS(HPC_OFFSET)};
+#undef HPC_OFFSET
 
 /* C99's static assertion: the workspace the header promises holds the controller. */
 typedef char hpc_workspace_fits[sizeof(struct hitchpark_nmpc) <= HITCHPARK_NMPC_WORKSPACE_BYTES ? 1 : -1];
+
+static void* hpc_block(struct hitchpark_nmpc* c, int ocp) { return (unsigned char*) c + hpc_offsets[ocp]; }
+
+static const void* hpc_block_const(const struct hitchpark_nmpc* c, int ocp) {
+  return (const unsigned char*) c + hpc_offsets[ocp];
+}
 
 static const char* const hpc_messages[] = {
   "ok",
@@ -87,22 +106,21 @@ static long long hpc_now_ns(void) {
 }
 
 /* Python's max(a, b) and min(a, b) on floats: the first unless the second is greater (smaller). */
-static real hpc_clamp(real v, real lo, real hi) {
+static hpc_real hpc_clamp(hpc_real v, hpc_real lo, hpc_real hi) {
   if (lo > v) v = lo;
   if (hi < v) v = hi;
   return v;
 }
 
-/* NumPy's clip of one number. */
-static real hpc_clip(real v, real lo, real hi) {
+hpc_real hpc_clip(hpc_real v, hpc_real lo, hpc_real hi) {
   if (!isnan(v)) v = v > lo ? v : lo;
   if (!isnan(v)) v = v < hi ? v : hi;
   return v;
 }
 
 /* Python's float modulo (the sign of the divisor). */
-static real hpc_mod(real a, real b) {
-  real r = fmod(a, b);
+static hpc_real hpc_mod(hpc_real a, hpc_real b) {
+  hpc_real r = fmod(a, b);
   if (r != 0.0) {
     if ((b < 0.0) != (r < 0.0)) r += b;
   } else {
@@ -112,32 +130,42 @@ static real hpc_mod(real a, real b) {
 }
 
 /* An angle wrapped to [-pi, pi) (hitchpark.model.state.wrap_angle). */
-static real hpc_wrap(real a) {
-  real w = hpc_mod(a + HPC_PI, 2.0 * HPC_PI) - HPC_PI;
+static hpc_real hpc_wrap(hpc_real a) {
+  hpc_real w = hpc_mod(a + HPC_PI, 2.0 * HPC_PI) - HPC_PI;
   return w >= HPC_PI ? w - 2.0 * HPC_PI : w;
 }
 
-static int hpc_finite(const real* v, int n) {
+static int hpc_finite(const hpc_real* v, int n) {
   int i;
   for (i = 0; i < n; ++i)
     if (!isfinite(v[i])) return 0;
   return 1;
 }
 
-static void hpc_call(struct hitchpark_nmpc* c, int (*f)(const real**, real**, casadi_int*, real*, int),
-                     const real* x, const real* u, real* out) {
-  struct hp_work* m = &c->solver;
-  m->arg[0] = x;
-  m->arg[1] = u;
-  m->res[0] = out;
-  f(m->arg, m->res, m->iw, m->w, 0);
+void hpc_call(struct hpc_shared* sh, hpc_function f, const hpc_real* x, const hpc_real* u, hpc_real* out) {
+  sh->arg[0] = x;
+  sh->arg[1] = u;
+  sh->res[0] = out;
+  f(sh->arg, sh->res, sh->iw, sh->w, 0);
+}
+
+hpc_real hpc_next_first_step(const struct hpc_shared* sh, hpc_real* part) {
+  hpc_real left;
+  *part = 1.0;
+  if (!sh->has_last) return HPC_PREDICTION_DT;
+  left = sh->first_step - HPC_DT;
+  if (left >= HPC_DT - 1e-9) {
+    *part = 0.0;
+    return left;
+  }
+  return left + HPC_PREDICTION_DT;
 }
 
 /* The state the next command will act on, in the parking frame (FullNMPC._state). */
 static void hpc_state(struct hitchpark_nmpc* c, const hitchpark_nmpc_measurement* meas, const hitchpark_nmpc_pose* goal,
-                      const hitchpark_nmpc_command* in_flight, int n_in_flight, real* x) {
-  real cg = cos(goal->yaw), sg = sin(goal->yaw);
-  real ex = meas->x - goal->x, ey = meas->y - goal->y;
+                      const hitchpark_nmpc_command* in_flight, int n_in_flight, hpc_real* x) {
+  hpc_real cg = cos(goal->yaw), sg = sin(goal->yaw);
+  hpc_real ex = meas->x - goal->x, ey = meas->y - goal->y;
   int i, j;
   x[0] = cg * ex + sg * ey;
   x[1] = -sg * ex + cg * ey;
@@ -146,155 +174,124 @@ static void hpc_state(struct hitchpark_nmpc* c, const hitchpark_nmpc_measurement
   x[4] = meas->front_steer;
   x[5] = meas->rear_speed;
   for (i = 0; i < n_in_flight; ++i) {
-    real u[2], next[HP_NX];
+    hpc_real u[2], next[HPC_NX];
     u[0] = hpc_clip((in_flight[i].front_steer - x[HPC_STEER]) / HPC_DT, -HPC_MAX_STEER_RATE, HPC_MAX_STEER_RATE);
     u[1] = hpc_clip((in_flight[i].rear_speed - x[HPC_SPEED]) / HPC_DT, -HPC_MAX_ACCEL, HPC_MAX_ACCEL);
-    hpc_call(c, HPC_MODEL_STEP, x, u, next);
-    for (j = 0; j < HP_NX; ++j) x[j] = next[j];
+    hpc_call(&c->sh, HPC_MODEL_STEP, x, u, next);
+    for (j = 0; j < HPC_NX; ++j) x[j] = next[j];
   }
 }
 
-/* The next problem's first prediction step and how far the last plan moves on (RecedingHorizon._next_first_step). */
-static real hpc_next_first_step(const struct hitchpark_nmpc* c, real* part) {
-  real left;
-  *part = 1.0;
-  if (!c->has_last) return HPC_PREDICTION_DT;
-  left = c->first_step - HPC_DT;
-  if (left >= HPC_DT - 1e-9) {
-    *part = 0.0;
-    return left;
+/* ------------------------------------------------------------------ the path (PathReference) */
+
+/* NumPy's interp of one number: fp at x along the non-decreasing xp (n of them), the ends held. */
+static hpc_real hpc_interp(hpc_real x, const hpc_real* xp, const hpc_real* fp, int n) {
+  int lo = 0, hi = n, j;
+  hpc_real slope, y;
+  if (x > xp[n - 1]) return fp[n - 1];
+  if (x < xp[0]) return fp[0];
+  while (lo < hi) { /* the last j with xp[j] <= x */
+    int mid = lo + (hi - lo) / 2;
+    if (x >= xp[mid]) lo = mid + 1;
+    else hi = mid;
   }
-  return left + HPC_PREDICTION_DT;
+  j = lo - 1;
+  if (j < 0) return fp[0];
+  if (j >= n - 1 || xp[j] == x) return fp[j];
+  slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]);
+  y = slope * (x - xp[j]) + fp[j];
+  if (isnan(y)) {
+    y = slope * (x - xp[j + 1]) + fp[j + 1];
+    if (isnan(y) && fp[j] == fp[j + 1]) y = fp[j];
+  }
+  return y;
 }
 
-/* Stage k's entries of w moved on by part of a step, the last held (shifted_rows, per block). */
-static void hpc_shift(real* v, const int* at, int n_blocks, int size, int stride, real part) {
-  int k, i;
-  if (part <= 0.0) return;
-  for (k = 0; k < n_blocks; ++k) {
-    int here = at[0] + k * stride, ahead = at[0] + (k + 1 < n_blocks ? k + 1 : k) * stride;
-    for (i = 0; i < size; ++i) v[here + i] = part >= 1.0 ? v[ahead + i] : (1.0 - part) * v[here + i] + part * v[ahead + i];
+/* NumPy's searchsorted of v in the non-decreasing s: the first index with s >= v (left) or s > v (right). */
+static int hpc_search(const hpc_real* s, int n, hpc_real v, int right) {
+  int lo = 0, hi = n;
+  while (lo < hi) {
+    int mid = lo + (hi - lo) / 2;
+    if (right ? s[mid] <= v : s[mid] < v) lo = mid + 1;
+    else hi = mid;
   }
+  return lo;
 }
 
-/* The bounds of the problem (MultipleShooting.bounds); free: X_0's steer freed within its limits. */
-static void hpc_bounds(struct hitchpark_nmpc* c, int free) {
-  int k, i;
-  const real lo_x[HP_NX] = {-INFINITY, -INFINITY, -INFINITY, -HPC_HITCH_BOUND, -HPC_MAX_STEER, HPC_SPEED_MIN};
-  const real hi_x[HP_NX] = {INFINITY, INFINITY, INFINITY, HPC_HITCH_BOUND, HPC_MAX_STEER, HPC_SPEED_MAX};
-  for (k = 0; k <= HP_N; ++k) {
-    for (i = 0; i < HP_NX; ++i) {
-      c->lbx[k * HP_NV + i] = k == 0 ? -INFINITY : lo_x[i];
-      c->ubx[k * HP_NV + i] = k == 0 ? INFINITY : hi_x[i];
-    }
-    if (k < HP_N) {
-      c->lbx[k * HP_NV + HP_NX] = -HPC_MAX_STEER_RATE;
-      c->ubx[k * HP_NV + HP_NX] = HPC_MAX_STEER_RATE;
-      c->lbx[k * HP_NV + HP_NX + 1] = -HPC_MAX_ACCEL;
-      c->ubx[k * HP_NV + HP_NX + 1] = HPC_MAX_ACCEL;
-    }
-  }
-  for (i = 0; i < HP_NG; ++i) c->lbg[i] = c->ubg[i] = 0.0;
-  if (free) {
-    c->lbg[HPC_STEER] = -INFINITY;
-    c->ubg[HPC_STEER] = INFINITY;
-    c->lbx[HPC_STEER] = -HPC_MAX_STEER;
-    c->ubx[HPC_STEER] = HPC_MAX_STEER;
-  }
-}
-
-/* The warm start (RecedingHorizon._initial_guess and MultipleShooting.guess). */
-static void hpc_guess(struct hitchpark_nmpc* c, const real* x0) {
-  int k, i;
-  real* w = c->w0;
-  if (c->has_last) {
-    real part;
-    int xs = 0, us = HP_NX;
-    hpc_next_first_step(c, &part);
-    for (i = 0; i < HP_NW; ++i) w[i] = c->last_w[i];
-    hpc_shift(w, &us, HP_N, HP_NU, HP_NV, part);
-    hpc_shift(w, &xs, HP_N + 1, HP_NX, HP_NV, part);
-  } else {
-    for (k = 0; k < HP_N; ++k) {
-      w[k * HP_NV + HP_NX] = 0.0;
-      w[k * HP_NV + HP_NX + 1] = k < HPC_COLD_RAMP ? -HPC_MAX_ACCEL : 0.0;
+/* PathReference.locate: the nearest point moves on (never back) within 3 m; its arc length. */
+static hpc_real hpc_locate(struct hitchpark_nmpc* c, hpc_real x, hpc_real y) {
+  int first = hpc_search(c->path_s, c->path_n, c->progress - 1e-9, 0);
+  int last = hpc_search(c->path_s, c->path_n, c->progress + 3.0, 1), i, best = first;
+  hpc_real least = NAN;
+  for (i = first; i < last; ++i) { /* np.argmin: the first least, or the first NaN */
+    hpc_real d = hypot(c->path[0][i] - x, c->path[1][i] - y);
+    if (i == first || !(d >= least)) {
+      least = d;
+      best = i;
+      if (isnan(least)) break;
     }
   }
-  for (k = 0; k < HP_N; ++k) { /* np.minimum(np.maximum(inputs, u_min), u_max) */
-    real* u = w + k * HP_NV + HP_NX;
-    u[0] = hpc_clip(u[0], -HPC_MAX_STEER_RATE, HPC_MAX_STEER_RATE);
-    u[1] = hpc_clip(u[1], -HPC_MAX_ACCEL, HPC_MAX_ACCEL);
+  if (last > first) {
+    c->progress = c->path_s[best];
+    c->deviation = least;
   }
-  for (i = 0; i < HP_NX; ++i) w[i] = x0[i];
-  if (!c->has_last) /* the states rolled out over the model, a whole prediction step each */
-    for (k = 0; k < HP_N; ++k) hpc_call(c, HPC_PREDICT_STEP, w + k * HP_NV, w + k * HP_NV + HP_NX, w + (k + 1) * HP_NV);
+  return c->progress;
 }
 
-/* One solve; 0: converged with a finite answer, else the error code. Keeps the multipliers of a good one. */
-static int hpc_solve(struct hitchpark_nmpc* c, int warm) {
-  const real* arg[8];
-  real* res[5];
-  int i;
-  c->has_duals = 0;
-  c->solver_code = 0;
-  c->iterations = 0;
-  c->converged = 0;
-  c->cost = NAN;
-  if (!hpc_finite(c->w0, HP_NW) || !hpc_finite(c->par, HPC_NPAR)) {
-    for (i = 0; i < HP_NW; ++i) c->x_out[i] = NAN;
-    return HITCHPARK_NMPC_E_SOLVER_INPUT;
-  }
-  arg[0] = c->w0; arg[1] = c->par; arg[2] = c->lbx; arg[3] = c->ubx; arg[4] = c->lbg; arg[5] = c->ubg;
-  arg[6] = c->lam_x0; arg[7] = c->lam_g0;
-  res[0] = c->x_out; res[1] = &c->f_out; res[2] = c->g_out; res[3] = c->lam_x; res[4] = c->lam_g;
-  if (!warm) {
-    for (i = 0; i < HP_NW; ++i) c->lam_x0[i] = 0.0;
-    for (i = 0; i < HP_NG; ++i) c->lam_g0[i] = 0.0;
-  }
-  c->solver_code = hp_solve(&c->solver, arg, res, warm, HPC_DUAL_FLOOR);
-  c->iterations = c->solver.iterations;
-  c->cost = c->f_out;
-  c->converged = c->solver_code == 0;
-  if (c->solver_code != 0) return HITCHPARK_NMPC_E_SOLVER;
-  if (!hpc_finite(c->x_out, HP_NW) || !isfinite(c->f_out)) return HITCHPARK_NMPC_E_SOLUTION;
-  if (hpc_finite(c->lam_x, HP_NW) && hpc_finite(c->lam_g, HP_NG)) {
-    for (i = 0; i < HP_NW; ++i) c->last_lam_x[i] = c->lam_x[i];
-    for (i = 0; i < HP_NG; ++i) c->last_lam_g[i] = c->lam_g[i];
-    c->has_duals = 1;
-  }
-  return 0;
+/* PathReference._speed at one arc length: cruise, braking to stop at the goal. */
+static hpc_real hpc_reference_speed(const struct hitchpark_nmpc* c, hpc_real s) {
+  hpc_real left = c->length - s, v;
+  left = left > 0.0 || isnan(left) ? left : 0.0; /* np.maximum */
+  v = sqrt(2.0 * c->brake * left);
+  return c->speed < v || isnan(c->speed) ? c->speed : v; /* np.minimum */
 }
 
-/* The multipliers of the warm start (MultipleShooting.shift_duals); 0: none. */
-static int hpc_warm_duals(struct hitchpark_nmpc* c) {
-  real part;
-  int i, xs = 0, us = HP_NX, gs = 0;
-  if (!HPC_WARM_DUALS || !c->has_duals || !c->has_last) return 0;
-  hpc_next_first_step(c, &part);
-  for (i = 0; i < HP_NW; ++i) c->lam_x0[i] = c->last_lam_x[i];
-  for (i = 0; i < HP_NG; ++i) c->lam_g0[i] = c->last_lam_g[i];
-  hpc_shift(c->lam_x0, &xs, HP_N + 1, HP_NX, HP_NV, part);
-  hpc_shift(c->lam_x0, &us, HP_N, HP_NU, HP_NV, part);
-  hpc_shift(c->lam_g0, &gs, HP_N + 1, HP_NX, HP_NX, part);
-  for (i = 0; i < HP_NX; ++i) c->lam_x0[i] = 0.0;
-  return 1;
+/* PathReference.window: the reference states of prediction steps 1..N from x0, the first step `first` s long. */
+static void hpc_window(struct hitchpark_nmpc* c, const hpc_real* x0, hpc_real first) {
+  hpc_real s = hpc_locate(c, x0[0], x0[1]);
+  int k, i;
+  for (k = 0; k < HPC_N; ++k) {
+    hpc_real dt = k == 0 ? first : HPC_PREDICTION_DT;
+    hpc_real v = sqrt(2.0 * c->brake * hpc_clamp(c->length - s, 0.0, INFINITY));
+    hpc_real ahead = s + (v < c->speed ? v : c->speed) * dt;
+    s = c->length < ahead ? c->length : ahead;
+    for (i = 0; i < 5; ++i) c->sh.refs[k * HPC_NX + i] = hpc_interp(s, c->path_s, c->path[i], c->path_n);
+    c->sh.refs[k * HPC_NX + 5] = -hpc_reference_speed(c, s); /* reverse */
+  }
 }
 
-/* The solve cascade of RecedingHorizon._solve_cascade without its fallback solver: the warm start, then the cold. */
-static int hpc_cascade(struct hitchpark_nmpc* c, const real* x0, int free) {
-  int cold = !c->has_last, warm, code, i;
-  hpc_bounds(c, free);
-  hpc_guess(c, x0);
-  for (i = 0; i < HP_NX; ++i) c->par[i] = x0[i];
-  c->par[HP_NX] = c->first_now;
-  warm = !free && !cold && hpc_warm_duals(c);
-  code = hpc_solve(c, warm);
-  if (code != 0 && !cold) {
-    c->has_last = 0;
-    hpc_guess(c, x0);
-    code = hpc_solve(c, 0);
+/* PathReference.branch: yaw moved by whole turns to the path's branch at the nearest point. */
+static hpc_real hpc_branch(const struct hitchpark_nmpc* c, hpc_real yaw) {
+  hpc_real here = hpc_interp(c->progress, c->path_s, c->path[2], c->path_n);
+  return yaw + 2.0 * HPC_PI * nearbyint((here - yaw) / (2.0 * HPC_PI));
+}
+
+/* FullNMPC._track: this sample's first prediction step; tracking, each step's reference and x0's yaw branch. */
+static void hpc_track(struct hitchpark_nmpc* c, hpc_real* x0) {
+  hpc_real part;
+  c->sh.first_now = hpc_next_first_step(&c->sh, &part);
+  if (c->path_n > 0) {
+    hpc_window(c, x0, c->sh.first_now);
+    x0[2] = hpc_branch(c, x0[2]);
   }
+}
+
+/* The solve cascade of the OCP of the moment (tracking or not); its codes kept. */
+static int hpc_cascade(struct hitchpark_nmpc* c, const hpc_real* x0, int free) {
+  struct hpc_report r;
+  int code;
+  c->ocp = c->path_n > 0 ? HPC_OCP_track : HPC_OCP_park;
+  code = hpc_ocps[c->ocp].cascade(hpc_block(c, c->ocp), &c->sh, x0, free);
+  hpc_ocps[c->ocp].report(hpc_block(c, c->ocp), &r);
+  c->solver_code = r.solver_code;
+  c->iterations = r.iterations;
+  c->converged = r.converged;
+  c->cost = r.cost;
   return code;
+}
+
+static const hpc_real* hpc_plan(const struct hitchpark_nmpc* c) {
+  return hpc_ocps[c->ocp].plan(hpc_block_const(c, c->ocp));
 }
 
 static int hpc_valid(const struct hitchpark_nmpc* c) { return c != 0 && c->magic == HPC_MAGIC; }
@@ -320,17 +317,45 @@ hitchpark_nmpc* hitchpark_nmpc_init(void* memory, size_t bytes) {
   if (!memory || bytes < sizeof(struct hitchpark_nmpc) || (uintptr_t) memory % sizeof(double) != 0) return 0;
   memset(c, 0, sizeof(*c));
   c->magic = HPC_MAGIC;
-  c->first_step = HPC_PREDICTION_DT;
-  c->first_now = HPC_PREDICTION_DT;
+  c->sh.first_step = HPC_PREDICTION_DT;
+  c->sh.first_now = HPC_PREDICTION_DT;
   c->cost = NAN;
   return c;
 }
 
 int hitchpark_nmpc_reset(hitchpark_nmpc* c, hitchpark_real front_steer) {
   if (!hpc_valid(c)) return HITCHPARK_NMPC_E_WORKSPACE;
-  c->has_last = 0;
-  c->has_duals = 0;
+  c->sh.has_last = 0;
   c->last_steer = isfinite(front_steer) ? front_steer : 0.0;
+  return 0;
+}
+
+int hitchpark_nmpc_follow(hitchpark_nmpc* c, const hitchpark_real* path, int n, hitchpark_real speed,
+                          hitchpark_real max_accel) {
+  int i, j;
+  if (!hpc_valid(c)) return HITCHPARK_NMPC_E_WORKSPACE;
+  if (n < 0 || n > HITCHPARK_NMPC_MAX_PATH) return HITCHPARK_NMPC_E_ARGUMENT;
+  if (n > 0 && !path) return HITCHPARK_NMPC_E_NULL;
+  if (n > 0 && (!hpc_finite(path, 5 * n) || !(speed > 0.0) || !isfinite(speed) || !(max_accel > 0.0) ||
+                !isfinite(max_accel)))
+    return HITCHPARK_NMPC_E_ARGUMENT;
+  for (i = 0; i < n; ++i)
+    for (j = 0; j < 5; ++j) c->path[j][i] = path[5 * i + j];
+  for (i = 0; i < n; ++i) /* np.cumsum of np.hypot of the steps */
+    c->path_s[i] = i == 0 ? 0.0 : c->path_s[i - 1] + hypot(c->path[0][i] - c->path[0][i - 1], c->path[1][i] - c->path[1][i - 1]);
+  c->path_n = n;
+  c->length = n > 0 ? c->path_s[n - 1] : 0.0;
+  c->speed = speed;
+  c->brake = 0.5 * max_accel;
+  c->progress = c->deviation = 0.0; /* PathReference.reset */
+  c->sh.has_last = 0;               /* FullNMPC.follow resets the controller */
+  return 0;
+}
+
+int hitchpark_nmpc_path_progress(const hitchpark_nmpc* c, hitchpark_real* progress, hitchpark_real* deviation) {
+  if (!hpc_valid(c)) return HITCHPARK_NMPC_E_WORKSPACE;
+  if (progress) *progress = c->progress;
+  if (deviation) *deviation = c->deviation;
   return 0;
 }
 
@@ -346,18 +371,25 @@ static int hpc_checked(const struct hitchpark_nmpc* c, const hitchpark_nmpc_meas
 }
 
 /* A refusal before solving: non-finite state, or the hitch past its limit (RecedingHorizon._refuse). */
-static int hpc_refused(const real* x) {
-  if (!hpc_finite(x, HP_NX)) return HITCHPARK_NMPC_E_STATE;
+static int hpc_refused(const hpc_real* x) {
+  if (!hpc_finite(x, HPC_NX)) return HITCHPARK_NMPC_E_STATE;
   if (fabs(x[3]) > HPC_MAX_HITCH) return HITCHPARK_NMPC_E_HITCH;
   return 0;
+}
+
+static void hpc_clear(struct hitchpark_nmpc* c) {
+  c->solver_code = 0;
+  c->iterations = 0;
+  c->converged = 0;
+  c->cost = NAN;
 }
 
 int hitchpark_nmpc_step(hitchpark_nmpc* c, const hitchpark_nmpc_measurement* meas, const hitchpark_nmpc_pose* goal,
                         const hitchpark_nmpc_command* in_flight, int n_in_flight, hitchpark_nmpc_command* command_out,
                         hitchpark_nmpc_status* status_out) {
   long long t0 = hpc_now_ns();
-  real* x0;
-  real part, steer, speed;
+  hpc_real* x0;
+  hpc_real steer = 0.0, speed = 0.0;
   int code = hpc_checked(c, meas, goal, in_flight, n_in_flight), stop;
   if (command_out) { /* until decided: a stop, the wheels held */
     command_out->rear_speed = 0.0;
@@ -368,34 +400,31 @@ int hitchpark_nmpc_step(hitchpark_nmpc* c, const hitchpark_nmpc_measurement* mea
     hpc_status(status_out, hpc_valid(c) ? c : 0, code, 1, t0);
     return code;
   }
-  c->solver_code = 0;
-  c->iterations = 0;
-  c->converged = 0;
-  c->cost = NAN;
-  x0 = c->x0;
+  hpc_clear(c);
+  x0 = c->sh.x0;
   hpc_state(c, meas, goal, in_flight, n_in_flight, x0);
   code = hpc_refused(x0);
   if (code == 0) {
-    c->first_now = hpc_next_first_step(c, &part);
+    hpc_track(c, x0);
     code = hpc_cascade(c, x0, 0);
   }
   if (code == 0) {
-    const real* u0 = c->x_out + HP_NX;
+    const hpc_real* u0 = hpc_plan(c) + HPC_NX;
     steer = hpc_clamp(x0[HPC_STEER] + HPC_DT * u0[0], -HPC_MAX_STEER, HPC_MAX_STEER);
     speed = hpc_clamp(x0[HPC_SPEED] + HPC_DT * u0[1], HPC_SPEED_MIN, HPC_SPEED_MAX);
     if (!isfinite(steer) || !isfinite(speed)) code = HITCHPARK_NMPC_E_COMMAND;
   }
   if (code != 0) { /* RecedingHorizon._stop */
-    c->has_last = 0;
+    c->sh.has_last = 0;
     command_out->rear_speed = 0.0;
     command_out->front_steer = c->last_steer;
     hpc_status(status_out, c, code, 1, t0);
     return code;
   }
   stop = fabs(speed) < HPC_STOP_SPEED && fabs(x0[HPC_SPEED]) < HPC_STOP_SPEED;
-  memcpy(c->last_w, c->x_out, sizeof(c->last_w));
-  c->has_last = 1;
-  c->first_step = c->first_now;
+  memcpy(c->sh.last_w, hpc_plan(c), sizeof(c->sh.last_w));
+  c->sh.has_last = 1;
+  c->sh.first_step = c->sh.first_now;
   if (stop) speed = 0.0;
   c->last_steer = steer;
   command_out->rear_speed = speed;
@@ -407,48 +436,46 @@ int hitchpark_nmpc_step(hitchpark_nmpc* c, const hitchpark_nmpc_measurement* mea
 int hitchpark_nmpc_initial_steer(hitchpark_nmpc* c, const hitchpark_nmpc_measurement* meas,
                                  const hitchpark_nmpc_pose* goal, hitchpark_real* steer_out, hitchpark_nmpc_status* status_out) {
   long long t0 = hpc_now_ns();
-  real part;
   int code = hpc_checked(c, meas, goal, 0, 0);
   if (code == 0 && !steer_out) code = HITCHPARK_NMPC_E_NULL;
   if (code != 0) {
     hpc_status(status_out, hpc_valid(c) ? c : 0, code, 1, t0);
     return code;
   }
-  c->solver_code = 0;
-  c->iterations = 0;
-  c->converged = 0;
-  c->cost = NAN;
-  hpc_state(c, meas, goal, 0, 0, c->x0);
-  code = hpc_refused(c->x0);
+  hpc_clear(c);
+  hpc_state(c, meas, goal, 0, 0, c->sh.x0);
+  code = hpc_refused(c->sh.x0);
   if (code != 0) {
-    c->has_last = 0;
+    c->sh.has_last = 0;
   } else {
-    c->first_now = hpc_next_first_step(c, &part);
-    code = hpc_cascade(c, c->x0, 1);
+    hpc_track(c, c->sh.x0);
+    code = hpc_cascade(c, c->sh.x0, 1);
     if (code == 0) {
-      real steer = hpc_clamp(c->x0[HPC_STEER] + HPC_DT * c->x_out[HP_NX], -HPC_MAX_STEER, HPC_MAX_STEER);
-      real speed = hpc_clamp(c->x0[HPC_SPEED] + HPC_DT * c->x_out[HP_NX + 1], HPC_SPEED_MIN, HPC_SPEED_MAX);
+      const hpc_real* plan = hpc_plan(c);
+      hpc_real steer = hpc_clamp(c->sh.x0[HPC_STEER] + HPC_DT * plan[HPC_NX], -HPC_MAX_STEER, HPC_MAX_STEER);
+      hpc_real speed = hpc_clamp(c->sh.x0[HPC_SPEED] + HPC_DT * plan[HPC_NX + 1], HPC_SPEED_MIN, HPC_SPEED_MAX);
       if (!isfinite(steer) || !isfinite(speed)) code = HITCHPARK_NMPC_E_COMMAND;
-      else c->first_step = c->first_now;
+      else c->sh.first_step = c->sh.first_now;
     }
     /* FullNMPC.initial_steer resets the controller to the measured steer whatever the answer */
-    c->has_last = 0;
-    c->has_duals = 0;
+    c->sh.has_last = 0;
     c->last_steer = meas->front_steer;
-    if (code == 0) *steer_out = hpc_clamp(c->x_out[HPC_STEER], -HPC_MAX_STEER, HPC_MAX_STEER);
+    if (code == 0) *steer_out = hpc_clamp(hpc_plan(c)[HPC_STEER], -HPC_MAX_STEER, HPC_MAX_STEER);
   }
   hpc_status(status_out, c, code, 0, t0);
   return code;
 }
 
 int hitchpark_nmpc_prediction(const hitchpark_nmpc* c, hitchpark_real* states, hitchpark_real* inputs) {
+  const hpc_real* plan;
   int k, i;
   if (!hpc_valid(c)) return HITCHPARK_NMPC_E_WORKSPACE;
-  for (k = 0; k <= HP_N; ++k) {
-    for (i = 0; i < HP_NX; ++i)
-      if (states) states[k * HP_NX + i] = c->x_out[k * HP_NV + i];
-    for (i = 0; i < HP_NU && k < HP_N; ++i)
-      if (inputs) inputs[k * HP_NU + i] = c->x_out[k * HP_NV + HP_NX + i];
+  plan = hpc_plan(c);
+  for (k = 0; k <= HPC_N; ++k) {
+    for (i = 0; i < HPC_NX; ++i)
+      if (states) states[k * HPC_NX + i] = plan[k * HPC_NV + i];
+    for (i = 0; i < HPC_NU && k < HPC_N; ++i)
+      if (inputs) inputs[k * HPC_NU + i] = plan[k * HPC_NV + HPC_NX + i];
   }
   return 0;
 }
@@ -456,7 +483,7 @@ int hitchpark_nmpc_prediction(const hitchpark_nmpc* c, hitchpark_real* states, h
 int hitchpark_nmpc_state(const hitchpark_nmpc* c, hitchpark_real* x0) {
   int i;
   if (!hpc_valid(c) || !x0) return HITCHPARK_NMPC_E_WORKSPACE;
-  for (i = 0; i < HP_NX; ++i) x0[i] = c->x0[i];
+  for (i = 0; i < HPC_NX; ++i) x0[i] = c->sh.x0[i];
   return 0;
 }
 

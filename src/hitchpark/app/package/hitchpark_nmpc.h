@@ -35,6 +35,8 @@ typedef HITCHPARK_REAL hitchpark_real;
 #define HITCHPARK_NMPC_NU 2
 /* The most commands in flight hitchpark_nmpc_step takes. */
 #define HITCHPARK_NMPC_MAX_IN_FLIGHT 50
+/* The most points of a path hitchpark_nmpc_follow takes (hitchpark samples its paths every 5 cm). */
+#define HITCHPARK_NMPC_MAX_PATH @MAX_PATH@
 
 /* Memory for one controller, aligned for any of its members. */
 typedef union {
@@ -116,6 +118,20 @@ int hitchpark_nmpc_initial_steer(hitchpark_nmpc* nmpc, const hitchpark_nmpc_meas
 int hitchpark_nmpc_step(hitchpark_nmpc* nmpc, const hitchpark_nmpc_measurement* measurement,
                         const hitchpark_nmpc_pose* goal, const hitchpark_nmpc_command* in_flight_commands,
                         int n_in_flight, hitchpark_nmpc_command* command_out, hitchpark_nmpc_status* status_out);
+
+/* Track a reverse path to the goal from now on (the tracking OCP), or, with n = 0, park at the goal (the parking
+ * OCP). path: n points (0..HITCHPARK_NMPC_MAX_PATH) of 5 numbers each, in the goal's frame (x, y forward and left
+ * of the goal, yaw relative to the goal's, continuous along the path), the hitch angle and the front steer there,
+ * in the order driven, ending at the goal (0, 0, 0, 0, 0): hitchpark's PathReference.points. speed: the rear
+ * axle's cruise speed along it [m/s] (> 0), max_accel: the braking to stop at the goal is half of it [m/s^2].
+ * Each step the path's point nearest the trailer axle moves on (never back), and from it the reference of each
+ * prediction step moves along the path. Resets the controller (as hitchpark_nmpc_reset, the steer kept). */
+int hitchpark_nmpc_follow(hitchpark_nmpc* nmpc, const hitchpark_real* path, int n, hitchpark_real speed,
+                          hitchpark_real max_accel);
+
+/* Tracking: the arc length [m] of the path's point nearest the trailer axle, and the axle's distance from it [m]
+ * (to give up on a path strayed from). Either may be NULL. */
+int hitchpark_nmpc_path_progress(const hitchpark_nmpc* nmpc, hitchpark_real* progress, hitchpark_real* deviation);
 
 /* The last solve's plan in the goal's frame: states (N + 1) x 6 (x, y, yaw, hitch, steer, speed) and inputs
  * N x 2 (steer rate, acceleration), row by row; either may be NULL. */
