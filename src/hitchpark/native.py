@@ -228,11 +228,12 @@ def build_library(
     return True
 
 
-def load_source(name: str, source: Path, load: Callable[[Path], Any]) -> Any:
-    """``load(library)`` of the plain C file ``source`` compiled into the cache (keyed by its text and the
-    tools), as :func:`load_cached`: None where nothing compiles or loads. No multiply-add is fused (as
-    compilers may where the processor has the instruction), so the C rounds as NumPy does."""
-    text = source.read_text()
+def load_source(name: str, source: Path, load: Callable[[Path], Any], includes: Sequence[Path] = ()) -> Any:
+    """``load(library)`` of the plain C file ``source`` compiled into the cache (keyed by its text, the texts of
+    the files it ``includes`` and the tools), as :func:`load_cached`: None where nothing compiles or loads. No
+    multiply-add is fused (as compilers may where the processor has the instruction), so the C rounds as NumPy
+    does."""
+    text = "".join(path.read_text() for path in (source, *includes))
 
     def build(compiler: str, home: Path, library: Path) -> bool:
         with tempfile.TemporaryDirectory(dir=home) as scratch:
@@ -248,9 +249,12 @@ def load_source(name: str, source: Path, load: Callable[[Path], Any]) -> Any:
     return load_cached(name, _key(text, ["source", name, "-ffp-contract=off"]), build, load)
 
 
-def source_function(name: str, source: Path, symbol: str, argtypes: Sequence[Any]) -> Any:
-    """The C function ``symbol`` (returning an ``int``) of the plain C file ``source``, compiled and loaded as
-    :func:`load_source` does, with its argument types set: None where nothing compiles or loads."""
+def source_function(
+    name: str, source: Path, symbol: str, argtypes: Sequence[Any], includes: Sequence[Path] = ()
+) -> Any:
+    """The C function ``symbol`` (returning an ``int``) of the plain C file ``source`` (which includes the
+    files ``includes`` beside it), compiled and loaded as :func:`load_source` does, with its argument types set:
+    None where nothing compiles or loads."""
 
     def load(library: Path) -> Any:
         function = getattr(ctypes.CDLL(str(library)), symbol)
@@ -258,7 +262,7 @@ def source_function(name: str, source: Path, symbol: str, argtypes: Sequence[Any
         function.argtypes = list(argtypes)
         return function
 
-    return load_source(name, source, load)
+    return load_source(name, source, load, includes)
 
 
 class LibraryCall:

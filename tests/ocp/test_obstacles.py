@@ -14,11 +14,13 @@ from hitchpark import VehicleTrailer
 from hitchpark.control import NMPCSettings
 from hitchpark.control.nmpc import COLD_ROUNDS, FullNMPC
 from hitchpark.control.receding import NLPProblem
+from hitchpark.maneuver.scenario import builtin_scenario
 from hitchpark.model.collision import clearance
 from hitchpark.model.geometry import body_corners
 from hitchpark.model.plant import Measurement
 from hitchpark.model.scene import Area, Obstacle, Scene
-from hitchpark.model.state import Pose, State, from_goal_frame
+from hitchpark.model.state import Pose, State, from_goal_frame, to_goal_frame
+from hitchpark.ocp import obstacles as obstacles_module
 from hitchpark.ocp import separating as separating_module
 from hitchpark.ocp.obstacles import REACH_M, ClearanceConstraints, convex_pieces
 from hitchpark.ocp.separating import separating_lines, separating_lines_numpy
@@ -113,11 +115,54 @@ def test_a_scenes_lines_are_the_same_compiled_or_not(jit_cache, monkeypatch):
     goal, rng = Pose(0.5, -0.2, 0.05), np.random.default_rng(11)
     start = np.array([1.0, 0.0, 0.0, 0.0])
     plans = [start + np.cumsum(rng.normal(0.0, [0.4, 0.2, 0.05, 0.05], (11, 4)), axis=0) for _ in range(8)]
+    assert obstacles_module._kernel(True, str(jit_cache[0])) is not None  # the compiled parameters
     compiled = [lines.parameters(goal, plan, keep_warm=True) for plan in plans]
     monkeypatch.setattr(separating_module, "_kernel", lambda *_: None)
     for plan, got in zip(plans, compiled, strict=True):
-        assert np.array_equal(got, lines.parameters(goal, plan, keep_warm=True))
+        assert np.array_equal(got, lines.parameters_numpy(goal, plan, keep_warm=True))  # NumPy all through
     assert any(np.any(got[2::3] != -1.0) for got in compiled)  # lines were drawn, not only unused slots
+
+
+@pytest.mark.parametrize("name", ["driveway", "loading_dock", "curb_parallel", "boat_ramp"])
+def test_the_compiled_parameters_are_numpys_to_the_last_bit(name, jit_cache):
+    """clearance_lines.c (in-process where it compiles, and in the exported package) draws each step's lines as
+    the NumPy does, bit for bit: random warm starts about the scene's start and goal, anchored or not, keeping
+    the warm start's lines or not, on scenes of convex and non-convex obstacles and the ground outside an area."""
+    sc = builtin_scenario(name)
+    lines = ClearanceConstraints(sc.vehicle, 3)
+    lines.use(sc.scene, 0.23)
+    rng = np.random.default_rng(5)
+    start = np.array([*to_goal_frame(sc.goal, sc.start.x, sc.start.y, sc.start.yaw), sc.start.hitch])
+    drawn = 0
+    for trial in range(24):
+        near_goal = np.array([rng.uniform(0.0, 8.0), rng.uniform(-1.0, 1.0), rng.uniform(-0.5, 0.5), 0.0])
+        base = (start if trial % 2 else near_goal) + rng.normal(0.0, [1.0, 1.0, 0.3, 0.2])
+        walk = base + np.cumsum(rng.normal(0.0, [0.3, 0.3, 0.05, 0.05], (11, 4)), 0)
+        plan = np.column_stack([walk, np.zeros((11, 2))])
+        for anchored, keep_warm in ((True, False), (True, True), (False, False)):
+            got = lines.parameters(sc.goal, plan, anchored, keep_warm)
+            assert np.array_equal(got, lines.parameters_numpy(sc.goal, plan, anchored, keep_warm)), (trial, anchored)
+            drawn += int(np.sum(got[2::3] != -1.0))
+    assert drawn > 1000  # lines drawn, not only unused slots
+
+
+def test_pieces_at_the_same_distance_keep_their_order(jit_cache):
+    """A body that overlaps two pieces is at distance 0 from both: the lines come in the pieces' order, compiled or
+    not, on any machine (a stable sort; NumPy's default one orders ties as its build and processor do)."""
+    left = Obstacle("left", _box(4.0, 0.5, 0.0, 2.0, 1.0))
+    right = Obstacle("right", _box(4.0, -0.5, 0.0, 2.0, 1.0))
+    lines = ClearanceConstraints(VEHICLE, 2)
+    lines.use(Scene((left, right)), 0.2)
+    plan = np.column_stack([np.linspace(4.5, 3.5, 11), np.zeros((11, 5))])  # the trailer over both boxes
+    got = lines.parameters(Pose(), plan)
+    assert np.array_equal(got, lines.parameters_numpy(Pose(), plan))
+    trailer = list(lines.bodies).index("trailer")
+    slots = got.reshape(10, len(lines.bodies), 2, 3)[:, trailer]
+    for slot, alone in enumerate((left, right)):  # each piece's line, drawn in a scene of that piece alone
+        one = ClearanceConstraints(VEHICLE, 2)
+        one.use(Scene((alone,)), 0.2)
+        assert np.array_equal(slots[:, slot], one.parameters(Pose(), plan).reshape(10, -1, 2, 3)[:, trailer, 0])
+    assert not np.array_equal(slots[:, 0], slots[:, 1])
 
 
 def test_the_scene_is_cut_into_convex_pieces_that_cover_it():

@@ -23,29 +23,37 @@ corners, which are smooth in the state. A prediction that meets the lines keeps 
 that has one, never less. These numbers are parameters of the NLP, so one compiled solver serves every
 scene.
 
-The geometry is NumPy over all steps, bodies and pieces at once, but for the distance and line between
-each body and each edge of a piece, most of the work: that is :mod:`.separating` (compiled C where it can
-be). The constraint rows are CasADi.
+The parameters of a step are compiled C where it can be (``clearance_lines.c``, a body and a step at a time,
+the same operations in the same order as the NumPy here, to the last bit: ``hitchpark export``'s package
+carries that file), NumPy otherwise: over all steps, bodies and pieces at once, but for the distance and line
+between each body and each edge of a piece, which is :mod:`.separating`'s. The constraint rows are CasADi.
 """
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import math
+import os
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import shapely
 
-from ..model.geometry import body_corners
+from ..model.geometry import body_corners, has_tow_bar
 from ..model.scene import Scene
 from ..model.state import Pose, to_goal_frame
 from ..model.vehicle import VehicleTrailer
-from .separating import prepare_lines, separating_lines
+from ..native import jit_available, source_function
+from .separating import SEPARATING_LINES_SOURCE, prepare_lines, separating_lines
 
 __all__ = [
+    "CLEARANCE_LINES_SOURCE",
     "REACH_M",
     "ClearanceConstraints",
     "convex_pieces",
+    "vehicle_shape",
 ]
 
 #: Pieces of the scene farther than this from a body in the warm start get no line at that step [m]; a
@@ -54,6 +62,34 @@ REACH_M = 2.5
 
 #: An unused slot: 0 . p - (-1) >= 0 always holds.
 _UNUSED = (0.0, 0.0, -1.0)
+
+#: The compiled :meth:`ClearanceConstraints.parameters` (it includes :data:`.separating.SEPARATING_LINES_SOURCE`).
+CLEARANCE_LINES_SOURCE = Path(__file__).with_name("clearance_lines.c")
+
+_INT, _PTR = ctypes.c_longlong, ctypes.c_void_p
+
+
+@functools.lru_cache(maxsize=8)
+def _kernel(compiling: bool, cache: str | None) -> Any:
+    """The compiled parameters, or None where nothing compiles (per compilation switch and cache folder)."""
+    if not compiling:
+        return None
+    argtypes = [_INT, _PTR, _INT, _PTR, _INT, _INT, _PTR, _PTR, _PTR, _PTR, _INT, ctypes.c_double, ctypes.c_int,
+                ctypes.c_int, _PTR, _PTR]  # fmt: skip
+    return source_function(
+        "clearance_lines", CLEARANCE_LINES_SOURCE, "hp_clearance_lines", argtypes, (SEPARATING_LINES_SOURCE,)
+    )
+
+
+def vehicle_shape(vehicle: VehicleTrailer) -> np.ndarray:
+    """The lengths ``clearance_lines.c`` draws the bodies with (:func:`~hitchpark.model.geometry.body_corners`'s):
+    L_T, L_H, rear overhang, wheelbase + front overhang, vehicle width / 2, trailer rear, trailer front, trailer
+    width / 2, and 1 where the tow bar sticks out behind the body."""
+    v = vehicle
+    return np.array(
+        [v.trailer_length, v.hitch_offset, v.rear_overhang, v.wheelbase + v.front_overhang, v.vehicle_width / 2,
+         v.trailer_rear, v.trailer_front, v.trailer_width / 2, float(has_tow_bar(v))]
+    )  # fmt: skip
 
 
 def _ccw(polygon: np.ndarray) -> np.ndarray:
@@ -115,6 +151,8 @@ class ClearanceConstraints:
         self._clearance = 0.0
         self._pieces: tuple[np.ndarray, np.ndarray] | None = None
         self._framed: tuple[Pose, np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._kernel_framed: tuple[Any, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] | None = None
+        self._shape = vehicle_shape(vehicle)
 
     # -- CasADi: the rows of one prediction step --------------------------------------------------------
 
@@ -150,6 +188,7 @@ class ClearanceConstraints:
             pieces = convex_pieces(scene)
             self._scene, self._pieces, self._framed = scene, (_padded(pieces) if pieces else None), None
             prepare_lines()
+            _kernel(jit_available(), os.environ.get("HITCHPARK_CACHE"))  # compiled now, not inside a tick
         self._clearance = float(clearance_m)
 
     def _in_goal_frame(self, goal: Pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -228,6 +267,37 @@ class ClearanceConstraints:
         return distance, n, h
 
     def parameters(self, goal: Pose, states: np.ndarray, anchored: bool = True, keep_warm: bool = False) -> np.ndarray:
+        """The lines of each prediction step, flat (see :meth:`parameters_numpy`): compiled where it can be, the
+        same to the last bit."""
+        kernel = _kernel(jit_available(), os.environ.get("HITCHPARK_CACHE"))
+        states = np.asarray(states, dtype=float)
+        if kernel is None or self._pieces is None or states.ndim != 2 or states.shape[1] < 4 or len(states) < 2:
+            return self.parameters_numpy(goal, states, anchored, keep_warm)
+        states = np.ascontiguousarray(states)
+        vertices, edges, outward, real = self._kernel_pieces(goal)
+        n_steps = len(states) - 1
+        out = np.empty(n_steps * self.n_params)
+        scratch = np.empty((6 + vertices.shape[1]) * len(vertices))
+        kernel(
+            n_steps, states.ctypes.data, states.shape[1], self._shape.ctypes.data, len(vertices), vertices.shape[1],
+            vertices.ctypes.data, edges.ctypes.data, outward.ctypes.data, real.ctypes.data, self.planes,
+            self._clearance, int(anchored), int(keep_warm), scratch.ctypes.data, out.ctypes.data,
+        )  # fmt: skip
+        return out
+
+    def _kernel_pieces(self, goal: Pose) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The pieces in the goal's frame as ``clearance_lines.c`` takes them: vertices, edges, outward normals and
+        the real-edge mask as numbers, contiguous (cached with the frame)."""
+        vertices, outward, real = self._in_goal_frame(goal)
+        if self._kernel_framed is None or self._kernel_framed[0] is not self._framed:
+            edges = np.stack([vertices, np.roll(vertices, -1, axis=1)], 2)
+            v, e, o, r = (np.ascontiguousarray(a, dtype=float) for a in (vertices, edges, outward, real))
+            self._kernel_framed = (self._framed, (v, e, o, r))
+        return self._kernel_framed[1]
+
+    def parameters_numpy(
+        self, goal: Pose, states: np.ndarray, anchored: bool = True, keep_warm: bool = False
+    ) -> np.ndarray:
         """The lines of each prediction step, flat: ``states`` are X_0..X_N of the warm start, parking frame.
         ``anchored``: an edge's line leaves the gap at X_0 too (see the module text); a planned path, far
         longer than a horizon, takes each line from its own step alone. ``keep_warm`` (anchored): the warm
@@ -271,7 +341,7 @@ class ClearanceConstraints:
                 n[redo] = np.where(cut[redo][..., None], own_n, n[redo])
                 h[redo] = np.where(cut[redo], own_h, h[redo])
         take = min(self.planes, len(pieces))
-        nearest = np.argsort(distance, axis=1)[:, :take]  # (b k, take)
+        nearest = np.argsort(distance, axis=1, kind="stable")[:, :take]  # (b k, take); ties in order, on any machine
         rows = np.arange(len(distance))[:, None]
         within = distance[rows, nearest] <= REACH_M
         chosen = np.concatenate([n[rows, nearest], (h[rows, nearest] + self._clearance)[..., None]], -1)
