@@ -14,8 +14,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from flags import WARNINGS
 
-from hitchpark.app.export import PACKAGE_FILES, copy_package, library_sources
+from hitchpark.app.export import PACKAGE_FILES, copy_package
 from hitchpark.app.sil import ExportedNMPC, _Command, _Measurement, _Pose, _Status, sil_settings
 from hitchpark.maneuver.process import park
 from hitchpark.maneuver.scenario import builtin_scenario
@@ -24,8 +25,6 @@ from hitchpark.model.scene import Obstacle, Scene
 from hitchpark.model.state import Pose, State
 from hitchpark.ocp.reference import PathReference
 from hitchpark.solvers.riccati import RICCATI_SOURCE
-
-WARNINGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2", "-ffp-contract=off")
 
 
 def test_the_package_holds_its_files_and_a_manifest_of_them(random_files):
@@ -73,13 +72,19 @@ def _build(compiler: str, folder: Path, *extra: str) -> subprocess.CompletedProc
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["gcc", "clang"])
-def test_the_package_builds_without_a_warning(name, random_files, tmp_path, c_compiler):
-    compiler = shutil.which(name)
+def test_the_package_builds_without_a_warning_by_the_system_compiler(built):
+    """The package (every OCP and the geometry) compiled with -Wall -Wextra -pedantic -Werror, linked as a library and
+    as the example: the compiler says nothing."""
+    assert not built.stderr.strip(), built.stderr
+
+
+@pytest.mark.slow
+def test_the_package_builds_without_a_warning_by_clang(random_files, tmp_path):
+    compiler = shutil.which("clang")
     if compiler is None:
-        pytest.skip(f"no {name} on this machine")
+        pytest.skip("no clang on this machine")
     copy_package(random_files, tmp_path / "pkg")
-    done = _build(compiler, tmp_path / "pkg")
+    done = _build(compiler, tmp_path / "pkg", "-O0")  # clang warns in its front end, whatever the optimisation
     assert done.returncode == 0 and not done.stderr.strip(), done.stderr
 
 
@@ -155,8 +160,18 @@ def test_the_python_face_of_the_library_refuses_what_it_cannot_do(library):
     with pytest.raises(ValueError, match="refused the path"):
         nmpc.follow(PathReference(long, Pose(), 0.5, 1.0, settings.prediction_dt, settings.horizon))
     wall = Obstacle("wall", np.array([[0.0, 3.0], [9.0, 3.0], [9.0, 3.5], [0.0, 3.5]]))
-    with pytest.raises(ValueError, match="obstacle OCP"):
-        nmpc.keep_clear(Scene((wall,)), 0.2)
+    with pytest.raises(ValueError, match="clearance_m"):
+        nmpc.keep_clear(Scene((wall,)), 11.0)
+    nmpc.keep_clear(Scene((wall,)), 0.2)  # this package has the obstacle OCP
+    # The C refuses a scene it cannot take: a piece of two vertices, a NaN, too many pieces, none given.
+    square = (ctypes.c_double * 8)(0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0)
+    for counts, n, code in (((2,), 1, 9), ((4,), 1_000_000, 9), ((4,), 1, 0)):
+        assert lib.hitchpark_nmpc_keep_clear(nmpc._handle, square, (ctypes.c_int * 1)(*counts), n, 0.2) == code
+    nan = (ctypes.c_double * 8)(0.0, 0.0, math.nan, 0.0, 1.0, 1.0, 0.0, 1.0)
+    assert lib.hitchpark_nmpc_keep_clear(nmpc._handle, nan, (ctypes.c_int * 1)(4), 1, 0.2) == 9
+    assert lib.hitchpark_nmpc_keep_clear(nmpc._handle, None, None, 1, 0.2) == 1
+    assert lib.hitchpark_nmpc_keep_clear(nmpc._handle, square, (ctypes.c_int * 1)(4), 1, -0.1) == 9
+    assert lib.hitchpark_nmpc_keep_clear(nmpc._handle, None, None, 0, 0.2) == 0  # open space again
     # The C refuses a path it cannot take: a NaN point, too many points, none given.
     points = (ctypes.c_double * 10)(0.0, 0.0, 0.0, 0.0, 0.0, math.nan, 0.0, 0.0, 0.0, 0.0)
     assert lib.hitchpark_nmpc_follow(nmpc._handle, points, 2, 0.5, 1.0) == 9
@@ -170,13 +185,8 @@ def test_the_python_face_of_the_library_refuses_what_it_cannot_do(library):
 
 
 @pytest.mark.slow
-def test_the_example_parks_from_random_as_park_does(random_files, compiled_in_process, tmp_path, c_compiler):
-    compiler = c_compiler
-    folder = tmp_path / "pkg"
-    copy_package(random_files, folder)
-    done = _build(compiler, folder)
-    assert done.returncode == 0, done.stderr
-    run = subprocess.run([str(folder / "example")], capture_output=True, text=True, timeout=120)
+def test_the_example_parks_from_random_as_park_does(built, compiled_in_process):
+    run = subprocess.run([str(built.example)], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr  # parked within 5 cm
     rows = np.array([[float(v) for v in line.split(",")] for line in run.stdout.splitlines()[1:]])
     sc = builtin_scenario("random")
@@ -191,21 +201,18 @@ def test_the_example_parks_from_random_as_park_does(random_files, compiled_in_pr
 
 
 @pytest.mark.slow
-def test_no_allocation_after_init_counted_by_an_interposed_allocator(random_files, tmp_path, c_compiler):
+def test_no_allocation_after_init_counted_by_an_interposed_allocator(built, c_compiler):
     """2000 steps in closed loop, some refused (a NaN hitch), with malloc, calloc and realloc counted for the whole
     process (tests/export/allocations.c): none after init; the counter itself counts the program's own malloc."""
-    folder = tmp_path / "pkg"
-    copy_package(random_files, folder)
-    probe = Path(__file__).with_name("allocations.c")
-    sources = sorted((folder / "src").glob("*.c"))
+    folder, probe = built.folder, Path(__file__).with_name("allocations.c")
     command = [c_compiler, "-std=gnu99", "-O1", "-fno-builtin", "-ffp-contract=off", f"-I{folder / 'include'}",
-               f"-I{folder / 'examples'}", str(probe), *map(str, sources), str(folder / "examples" / "example_plant.c"),
-               "-lm", "-o", str(tmp_path / "allocations")]  # fmt: skip
+               f"-I{folder / 'examples'}", str(probe), str(folder / "examples" / "example_plant.c"),
+               *map(str, built.objects), "-lm", "-o", str(folder / "allocations")]  # fmt: skip
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0 and "__libc_malloc" in done.stderr:
         pytest.skip("this C library has no __libc_malloc to forward to (not glibc): allocations not counted")
     assert done.returncode == 0, done.stderr
-    run = subprocess.run([str(tmp_path / "allocations")], capture_output=True, text=True, timeout=120)
+    run = subprocess.run([str(folder / "allocations")], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     after_init, after_steps, after_own, solved, refused = map(int, run.stdout.split())
     assert solved > 1500 and refused >= 2000 // 97
@@ -237,36 +244,34 @@ def _symbols(nm: str, objects: list[Path]) -> tuple[set[str], set[str]]:
 
 
 @pytest.mark.slow
-def test_the_library_needs_nothing_but_libm_and_the_clock_it_names(random_files, tmp_path, c_compiler):
+def test_the_library_needs_nothing_but_libm_and_the_clock_it_names(built, c_compiler):
     nm = shutil.which("nm")
     if nm is None:
         pytest.skip("no nm on this machine: the library's symbols are not read")
-    folder = tmp_path / "pkg"
-    copy_package(random_files, folder)
-
-    def compiled(name: str, *flags: str) -> Path:
-        obj = tmp_path / f"{Path(name).stem}{''.join(flags)}.o"
-        command = [c_compiler, *WARNINGS, *flags, f"-I{folder / 'include'}", "-c", str(folder / name)]
-        done = subprocess.run([*command, "-o", str(obj)], capture_output=True, text=True)
-        assert done.returncode == 0, done.stderr
-        return obj
-
-    others = [compiled(name) for name in library_sources(random_files) if name != "src/hitchpark_nmpc.c"]
-    for flags, clock in (((), {"clock_gettime"}), (("-DHITCHPARK_NMPC_NO_CLOCK",), set())):
-        needed, defined = _symbols(nm, [compiled("src/hitchpark_nmpc.c", *flags), *others])
-        assert "hitchpark_nmpc_step" in defined
+    folder = built.folder
+    unclocked = folder / "unclocked.o"
+    command = [c_compiler, *WARNINGS, "-fPIC", "-DHITCHPARK_NMPC_NO_CLOCK", f"-I{folder / 'include'}", "-c",
+               str(folder / "src" / "hitchpark_nmpc.c"), "-o", str(unclocked)]  # fmt: skip
+    done = subprocess.run(command, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    others = [obj for obj in built.objects if obj.stem != "hitchpark_nmpc"]
+    for tick, clock in ((folder / "hitchpark_nmpc.o", {"clock_gettime"}), (unclocked, set())):
+        needed, defined = _symbols(nm, [tick, *others])
+        assert "hitchpark_nmpc_step" in defined and "hitchpark_nmpc_keep_clear" in defined
         assert needed - LIBM - FREESTANDING - LINKER == clock, needed
 
 
 @pytest.mark.slow
-def test_the_example_runs_clean_under_the_address_and_undefined_sanitizers(random_files, tmp_path, c_compiler):
+def test_the_example_runs_clean_under_the_address_and_undefined_sanitizers(open_space_files, tmp_path, c_compiler):
+    """The default package (parking and tracking in open space) and its example built with AddressSanitizer and
+    UndefinedBehaviorSanitizer: the example's closed loop parks with nothing reported."""
     probe = tmp_path / "probe.c"
     probe.write_text("int main(void) { return 0; }\n")
     sanitize = ["-g", "-O0", "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"]
     if subprocess.run([c_compiler, *sanitize, str(probe), "-o", str(tmp_path / "probe")]).returncode != 0:
         pytest.skip(f"{c_compiler} builds no sanitized program on this machine")
     folder = tmp_path / "pkg"
-    copy_package(random_files, folder)
+    copy_package(open_space_files, folder)
     done = _build(c_compiler, folder, *sanitize)
     assert done.returncode == 0, done.stderr
     run = subprocess.run([str(folder / "example")], capture_output=True, text=True, timeout=300)

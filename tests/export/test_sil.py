@@ -62,6 +62,14 @@ def test_sil_equals_in_process_tracking_the_planners_path(plant, library, compil
     assert report["max_command_difference"] == 0.0 and report["max_state_difference"] == 0.0
 
 
-def test_sil_refuses_a_scene_of_obstacles():
-    with pytest.raises(ValueError, match="open space"):
-        run_sil(builtin_scenario("driveway"))
+@pytest.mark.slow
+@pytest.mark.parametrize(("name", "plant"), [("driveway", None), ("curb_parallel", FAULTS)], ids=["driveway", "curb"])
+def test_sil_equals_in_process_among_obstacles(name, plant, library, compiled_in_process):
+    """The obstacle OCP in C (the scene's lines drawn by clearance_lines.c, the cold start's plan without lines and
+    its rounds) tracking the planner's path among the scene, to the bit: the driveway on its own plant, the curb on
+    the fault plant (a delay, hitch noise, the lengths 10% longer)."""
+    report = run_sil(builtin_scenario(name), plant=plant and load_plant(plant), library=library, ipopt=False)
+    report = report.to_dict()
+    assert report["paths_followed"] >= 1 and report["exported"]["outcome"] == "parked"
+    assert report["same_outcome"] and report["rows"]["exported"] == report["rows"]["in_process"]
+    assert report["max_command_difference"] == 0.0 and report["max_state_difference"] == 0.0

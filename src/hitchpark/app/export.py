@@ -27,12 +27,15 @@ import casadi as ca
 
 from .. import __version__
 from ..checks import InputError
+from ..control.nmpc import COLD_ROUNDS
 from ..io import StagedFolder
 from ..model.integrate import plant_function
 from ..model.plant import PlantSettings
 from ..model.state import Pose, State
 from ..model.vehicle import VehicleTrailer
 from ..ocp.full import FullParkingProblem
+from ..ocp.obstacles import CLEARANCE_LINES_SOURCE, ClearanceConstraints, vehicle_shape
+from ..ocp.separating import SEPARATING_LINES_SOURCE
 from ..ocp.settings import NMPCSettings
 from ..solvers.casadi_patches import mark_unused_arguments
 from ..solvers.riccati import RICCATI_SOURCE, riccati_standalone
@@ -49,8 +52,16 @@ __all__ = [
 ]
 
 #: The package's OCPs, by the name of their C files: (tracking a path, keeping clear of a scene). The order is the
-#: C's (``HPC_OCPS``).
-OCPS = {"park": (False, False), "track": (True, False)}
+#: C's (``HPC_OCPS``); the last two only with ``--obstacles``.
+OCPS = {"park": (False, False), "track": (True, False), "park_lines": (False, True), "track_lines": (True, True)}
+
+#: The scene a package among obstacles takes at most: convex pieces, vertices a piece (``hitchpark_nmpc_keep_clear``).
+MAX_PIECES, MAX_VERTICES = 128, 16
+
+#: The files only a package among obstacles has: the geometry, hitchpark's own C files as the in-process route
+#: compiles them.
+GEOMETRY_FILES = {"src/geometry/clearance_lines.c": CLEARANCE_LINES_SOURCE, "src/geometry/separating_lines.c":
+                  SEPARATING_LINES_SOURCE}  # fmt: skip
 
 #: The files of a package, relative to its folder (what ``hitchpark export`` owns there).
 PACKAGE_FILES = (
@@ -61,6 +72,7 @@ PACKAGE_FILES = (
     "src/hitchpark_nmpc_model.c",
     "src/hitchpark_nmpc_ocp.inc",
     *(f"src/hitchpark_nmpc_{part}_{name}.c" for name in OCPS for part in ("ocp", "functions")),
+    *GEOMETRY_FILES,
     "src/riccati_ipm.inc",
     "examples/main.c",
     "examples/example_plant.c",
@@ -91,9 +103,17 @@ class ExportSpec:
     plant: PlantSettings = field(default_factory=lambda: PlantSettings(kind="ideal"))
     scenario: str = ""
     max_time: float = 300.0
+    obstacles: bool = False  # the obstacle OCP too (hitchpark_nmpc_keep_clear)
 
     def __post_init__(self) -> None:
         check_exportable(self.nmpc)
+        if self.obstacles and self.nmpc.obstacle_planes < 1:
+            raise InputError("--obstacles needs nmpc.obstacle_planes of 1 or more (the lines a body keeps at a step)")
+
+    @property
+    def ocps(self) -> dict[str, tuple[bool, bool]]:
+        """The OCPs of this package: parking and tracking, and among obstacles both with the scene's lines."""
+        return {name: kind for name, kind in OCPS.items() if self.obstacles or not kind[1]}
 
 
 def check_exportable(settings: NMPCSettings) -> None:
@@ -141,11 +161,14 @@ def block_bound(config: dict[str, int]) -> int:
     return _r8(work + 8 * (7 * nw + 6 * ng + n_par + 2) + 16 + 8)
 
 
-def workspace_bound(blocks: dict[str, int], horizon: int, functions: dict[str, int], max_path: int) -> int:
-    """Bytes that hold the controller (``struct hitchpark_nmpc``): its shared part, the path, and each OCP's block
-    (``blocks``, by :func:`block_bound`), on any usual ABI as :func:`block_bound` counts."""
+def workspace_bound(
+    blocks: dict[str, int], horizon: int, functions: dict[str, int], max_path: int, lines: int = 1
+) -> int:
+    """Bytes that hold the controller (``struct hitchpark_nmpc``): its shared part (``lines``: the numbers of a
+    step's lines, 1 in open space), the path, and each OCP's block (``blocks``, by :func:`block_bound`), on any usual
+    ABI as :func:`block_bound` counts; without the scene a package among obstacles adds."""
     nw = (horizon + 1) * 8 - 2
-    shared = 8 * (nw + 6 + 6 * horizon + 2) + 8 + 8 * sum(functions.values()) + 8
+    shared = 8 * (nw + 6 + 6 * horizon + horizon * lines + 2) + 16 + 8 * sum(functions.values()) + 8
     return _r8(8 + shared + 16 + 16 + 8 + 8 + 8 * 6 * max_path + 8 * 5 + sum(map(_r8, blocks.values())) + 8)
 
 
@@ -168,24 +191,29 @@ def _model_functions(spec: ExportSpec) -> dict[str, ca.Function]:
     return {"HPC_MODEL_STEP": model, "HPC_PREDICT_STEP": predict}
 
 
-def _ocp_files(spec: ExportSpec, name: str, tracking: bool) -> tuple[dict[str, int], dict[str, str]]:
+def _ocp_files(spec: ExportSpec, name: str, tracking: bool, lines: bool) -> tuple[dict[str, int], dict[str, str]]:
     """One OCP's definitions (its sizes) and its two C files: the solver and the tick for its sizes, and its stage
     functions as CasADi writes them."""
-    transcription = make_transcription(FullParkingProblem(spec.vehicle, spec.nmpc, tracking=tracking))
+    clearance = ClearanceConstraints(spec.vehicle, spec.nmpc.obstacle_planes) if lines else None
+    transcription = make_transcription(FullParkingProblem(spec.vehicle, spec.nmpc, clearance, tracking))
     try:
         built = riccati_standalone(transcription, f"{PREFIX}{name}_", spec.nmpc.solver_options)
     except RuntimeError as exc:
         raise InputError(f"nmpc.solver_options are not accepted by riccati_c: {exc}") from None
     assert built is not None  # multiple shooting, no path constraints
     definitions, functions_c = built
-    title = "tracking a planned path to the goal" if tracking else "parking at the goal"
+    title = ("tracking a planned path to the goal" if tracking else "parking at the goal") + (
+        ", keeping clear of the scene" if lines else ""
+    )
     ocp = (
         f"/* hitchpark_nmpc_ocp_{name}.c: the OCP {title} (generated by hitchpark {__version__}): its sizes,\n"
         " * the solver and the controller's part of the tick, compiled for them. */\n"
         '#include "hitchpark_nmpc_internal.h"\n'
         + definitions
-        + f"#define HPC_OCP_TRACKING {int(tracking)}\n#define HPC_OCP_BYTES HPC_OCP_BYTES_{name}\n"
-        + "".join(f"#define HPC_OCP_{part.upper()} hpc_{name}_{part}\n" for part in ("cascade", "plan", "report"))
+        + f"#define HPC_OCP_TRACKING {int(tracking)}\n#define HPC_OCP_LINES {int(lines)}\n"
+        + f"#define HPC_OCP_BYTES HPC_OCP_BYTES_{name}\n"
+        + "".join(f"#define HPC_OCP_{part.upper()} hpc_{name}_{part}\n"
+                  for part in ("cascade", "solve_from", "plan", "report"))
         + '#include "riccati_ipm.inc"\n#include "hitchpark_nmpc_ocp.inc"\n'
     )  # fmt: skip
     files = {
@@ -195,9 +223,13 @@ def _ocp_files(spec: ExportSpec, name: str, tracking: bool) -> tuple[dict[str, i
     return _config_values(definitions), files
 
 
+def _geometry_files() -> dict[str, str]:
+    return {name: path.read_text(encoding="utf-8") for name, path in GEOMETRY_FILES.items()}
+
+
 def library_sources(files: dict[str, str]) -> list[str]:
-    """The package's C files of the library (not the example's), in a fixed order."""
-    return sorted(name for name in files if name.startswith("src/") and name.endswith(".c"))
+    """The package's C files of the library (not the example's, nor those another includes), in a fixed order."""
+    return sorted(name for name in files if name.startswith("src/") and name.count("/") == 1 and name.endswith(".c"))
 
 
 def _settings_text(spec: ExportSpec) -> dict[str, Any]:
@@ -219,8 +251,8 @@ def package_files(spec: ExportSpec) -> dict[str, str]:
     assert s.prediction_dt is not None and s.horizon is not None
     files: dict[str, str] = {}
     sizes: dict[str, dict[str, int]] = {}
-    for name, (tracking, _) in OCPS.items():
-        sizes[name], ocp_files = _ocp_files(spec, name, tracking)
+    for name, (tracking, lines) in spec.ocps.items():
+        sizes[name], ocp_files = _ocp_files(spec, name, tracking, lines)
         files.update(ocp_files)
     model = _model_functions(spec)
     generator = ca.CodeGenerator(f"{PREFIX}model.c", {"main": False, "with_header": False})
@@ -233,7 +265,13 @@ def package_files(spec: ExportSpec) -> dict[str, str]:
         "HPC_FN_SZ_W": max(max(f.sz_w() for f in model.values()), 1),
     }
     blocks = {name: block_bound(values) for name, values in sizes.items()}
-    workspace = workspace_bound(blocks, s.horizon, work, MAX_PATH)
+    clearance = ClearanceConstraints(v, s.obstacle_planes)
+    n_lines = clearance.n_params if spec.obstacles else 1
+    workspace = workspace_bound(blocks, s.horizon, work, MAX_PATH, n_lines)
+    if spec.obstacles:  # the scene, framed, the lines' scratch, a cold start's plans (hitchpark_nmpc.c)
+        nw = (s.horizon + 1) * 8 - 2
+        workspace += 8 * (MAX_PIECES * MAX_VERTICES * 11 + MAX_PIECES * (6 + MAX_VERTICES) + (s.horizon + 1) * 6)
+        workspace += 8 * (3 * nw + 8) + 4 * 8 + 8 * 3 * 2
     step = float(s.prediction_dt)
     ramp = max(1, round(0.5 * abs(s.speed_min) / (v.max_accel * step)))  # FullNMPC._cold_inputs
     constants = {
@@ -255,9 +293,13 @@ def package_files(spec: ExportSpec) -> dict[str, str]:
         "#ifndef HITCHPARK_REAL\n#define HITCHPARK_REAL double\n#endif\n"
         "#define casadi_real HITCHPARK_REAL\n#define casadi_int long long int\n"
         f"/* the OCPs (hitchpark_nmpc_ocp_NAME.c), each one's block [bytes] */\n"
-        f"#define HPC_OCPS(X) {' '.join(f'X({name})' for name in OCPS)}\n"
+        f"#define HPC_OCPS(X) {' '.join(f'X({name})' for name in spec.ocps)}\n"
         + "".join(f"#define HPC_OCP_BYTES_{name} {size}\n" for name, size in blocks.items())
         + f"#define HPC_N {s.horizon}\n"
+        + "/* among obstacles: the lines a body keeps at a step, the numbers of a step's lines, the bodies */\n"
+        + f"#define HPC_OBSTACLES {int(spec.obstacles)}\n#define HPC_PLANES {s.obstacle_planes}\n"
+        + f"#define HPC_NL {n_lines}\n#define HPC_COLD_ROUNDS {COLD_ROUNDS}\n"
+        + f"#define HPC_SHAPE {{{', '.join(_c(x) for x in vehicle_shape(v))}}}\n"
         + "/* the model's functions (hitchpark_nmpc_model.c) */\n"
         + "".join(f"#define {k} {value}\n" for k, value in work.items())
         + "".join(f"#define {macro} {function.name()}\n" for macro, function in model.items())
@@ -273,6 +315,8 @@ def package_files(spec: ExportSpec) -> dict[str, str]:
         .replace("@DT@", repr(float(s.dt)))
         .replace("@WORKSPACE_BYTES@", str(workspace))
         .replace("@MAX_PATH@", str(MAX_PATH))
+        .replace("@MAX_PIECES@", str(MAX_PIECES))
+        .replace("@MAX_VERTICES@", str(MAX_VERTICES))
     )
     files.update(
         {
@@ -284,6 +328,7 @@ def package_files(spec: ExportSpec) -> dict[str, str]:
             "src/hitchpark_nmpc_model.c": '#include "hitchpark_nmpc_config.h"\n'
             + mark_unused_arguments(generator.dump()),
             "src/riccati_ipm.inc": RICCATI_SOURCE.read_text(encoding="utf-8"),
+            **(_geometry_files() if spec.obstacles else {}),
             **_example_files(spec),
             "cmake/arm-linux-gnueabihf.cmake": _template("arm-linux-gnueabihf.cmake"),
         }
@@ -297,13 +342,13 @@ def package_files(spec: ExportSpec) -> dict[str, str]:
         "hitchpark": __version__,
         "casadi": ca.CasadiMeta.version(),
         "settings": _settings_text(spec),
-        "ocps": list(OCPS),
+        "ocps": list(spec.ocps),
         "workspace_bytes": workspace,
         "sizes": {**{k: sizes["park"][k] for k in ("HP_N", "HP_NX", "HP_NU", "HP_MAX_ITER")}, "MAX_PATH": MAX_PATH},
         "sha256": {name: hashlib.sha256(text.encode()).hexdigest() for name, text in sorted(files.items())},
     }
     files["manifest.json"] = json.dumps(manifest, indent=2, sort_keys=True, default=repr) + "\n"
-    assert sorted(files) == sorted(PACKAGE_FILES)
+    assert set(files) <= set(PACKAGE_FILES)
     return files
 
 

@@ -2,10 +2,11 @@
 
 :func:`build_package` compiles a package (:mod:`.export`) in a scratch folder with the system's C compiler into
 a shared library; :class:`ExportedNMPC` drives that library through :mod:`ctypes` where the maneuver expects a
-:class:`~hitchpark.control.nmpc.FullNMPC`; :func:`run_sil` parks the same scenario twice, with the exported
-controller and with the in-process one, on hitchpark's plant, and compares them row by row
-(:class:`SilReport`). Both run the staged process (reverse under the NMPC, forward by pure pursuit): the package
-holds the parking OCP alone, not the tracking and obstacle OCPs of the planned process.
+:class:`~hitchpark.control.nmpc.FullNMPC` (parking, tracking the planner's path, keeping clear of a scene: every
+call goes to the C); :func:`run_sil` parks the same scenario twice, with the exported controller and with the
+in-process one, on hitchpark's plant, and compares them row by row (:class:`SilReport`). Both run the scenario's
+process (the paper's scenarios the staged one, the others the planned one); what is not the NMPC (the planner,
+the forward stages, the guard) is the same Python in both.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import InputError, check_choice, check_instance
+from ..checks import InputError, check_choice, check_instance, check_range
 from ..control.nmpc import FullNMPC
 from ..control.step import ControlStep
 from ..maneuver.process import park
@@ -35,6 +36,7 @@ from ..model.scene import Scene
 from ..model.state import Pose, check_goal
 from ..model.vehicle import VehicleTrailer
 from ..native import resolved_compiler
+from ..ocp.obstacles import convex_pieces
 from ..ocp.reference import PathReference
 from ..ocp.settings import NMPCSettings
 from ..solvers.registry import takes_free_initial
@@ -110,7 +112,8 @@ class ExportedNMPC(FullNMPC):
     """The exported controller (a compiled package) where the maneuver takes a :class:`FullNMPC`.
 
     It builds nothing of the in-process controller (no OCP, no solver): each call goes to the C. It parks at
-    the goal or tracks a path to it (:meth:`follow`), in open space: :meth:`keep_clear` of a scene it refuses.
+    the goal or tracks a path to it (:meth:`follow`), and keeps clear of a scene (:meth:`keep_clear`) where the
+    package has the obstacle OCP (``export --obstacles``).
     """
 
     def __init__(self, library: Path, vehicle: VehicleTrailer, settings: NMPCSettings):  # no super(): nothing built
@@ -140,8 +143,14 @@ class ExportedNMPC(FullNMPC):
         lib.hitchpark_nmpc_prediction.argtypes = (ctypes.c_void_p, ctypes.POINTER(_REAL), ctypes.POINTER(_REAL))
         lib.hitchpark_nmpc_state.argtypes = (ctypes.c_void_p, ctypes.POINTER(_REAL))
         lib.hitchpark_nmpc_follow.argtypes = (ctypes.c_void_p, ctypes.POINTER(_REAL), ctypes.c_int, _REAL, _REAL)
+        lib.hitchpark_nmpc_keep_clear.argtypes = (
+            ctypes.c_void_p, ctypes.POINTER(_REAL), ctypes.POINTER(ctypes.c_int), ctypes.c_int, _REAL,
+        )  # fmt: skip
+        lib.hitchpark_nmpc_ease_clearance.argtypes = (ctypes.c_void_p, _REAL)
         lib.hitchpark_nmpc_path_progress.argtypes = (ctypes.c_void_p, ctypes.POINTER(_REAL), ctypes.POINTER(_REAL))
+        lib.hitchpark_nmpc_workspace_bound.restype = ctypes.c_size_t
         self.workspace_bytes = int(lib.hitchpark_nmpc_workspace_size())
+        self.workspace_bound_bytes = int(lib.hitchpark_nmpc_workspace_bound())
         self._memory = (ctypes.c_double * (self.workspace_bytes // 8 + 1))()
         self._handle = lib.hitchpark_nmpc_init(self._memory, ctypes.sizeof(self._memory))
         if not self._handle:
@@ -152,6 +161,7 @@ class ExportedNMPC(FullNMPC):
         self._plan_u = (_REAL * (self._n * 2))()
         self._x0 = (_REAL * 6)()
         self._last_steer = 0.0
+        self._clearance_m = self._base_clearance_m = 0.0
         self._reference: PathReference | None = None
         self.paths_followed = 0  # the paths the C was given to track
         self.timing = _Timing()
@@ -191,9 +201,22 @@ class ExportedNMPC(FullNMPC):
             self._reference.progress, self._reference.deviation = float(progress.value), float(deviation.value)
 
     def keep_clear(self, scene: Scene, clearance_m: float) -> None:
-        if not scene.is_empty and self.settings.obstacle_planes > 0:
-            raise InputError("the exported controller has no obstacle OCP: run it in open space")
-        self.reset(self._last_steer)
+        """Keep ``clearance_m`` from ``scene`` in the C from now on (its convex pieces, as the in-process OCP cuts
+        it); a package exported without the obstacle OCP refuses a scene."""
+        check_range("clearance_m", clearance_m, 0.0, 10.0, unit="m")
+        pieces = convex_pieces(scene) if self.settings.obstacle_planes > 0 else []
+        counts = (ctypes.c_int * max(1, len(pieces)))(*[len(p) for p in pieces])
+        flat = np.concatenate([np.asarray(p, dtype=float).ravel() for p in pieces]) if pieces else np.zeros(1)
+        vertices = (_REAL * len(flat))(*flat)
+        code = self._lib.hitchpark_nmpc_keep_clear(self._handle, vertices, counts, len(pieces), float(clearance_m))
+        if code != 0:
+            why = "no obstacle OCP (export --obstacles)" if pieces else f"code {code}"
+            raise InputError(f"the exported controller refused the scene ({len(pieces)} convex pieces): {why}")
+        self._clearance_m = self._base_clearance_m = float(clearance_m)
+
+    def ease_clearance(self, clearance_m: float) -> None:
+        self._lib.hitchpark_nmpc_ease_clearance(self._handle, float(clearance_m))
+        self._clearance_m = min(self._base_clearance_m, float(clearance_m))
 
     @staticmethod
     def _inputs(measurement: Measurement, goal: Pose) -> tuple[_Measurement, _Pose]:
@@ -396,8 +419,9 @@ def run_sil(
     ``plant``: the car driven (default: the scenario's). ``nmpc``: the NMPC settings (default: :func:`sil_settings`'s).
     ``controller``: a ready in-process controller of those settings to reuse. ``scratch``: where to build (default: a
     temporary folder, removed after). ``library``: a build of this vehicle's and these settings' package to use
-    (:func:`build_package`) instead of building one. ``ipopt``: park a third time with IPOPT in-process, for
-    its step time (the reference the project's speed is measured against). ``process``: ``"staged"`` or
+    (:func:`build_package`; among obstacles, one exported with them) instead of building one. A scene of obstacles
+    is driven with the obstacle OCP (the package built ``--obstacles``). ``ipopt``: park a third time with IPOPT
+    in-process, for its step time (the reference the project's speed is measured against). ``process``: ``"staged"`` or
     ``"planned"`` (default: :func:`sil_settings`'s); planned, the NMPC tracks the planner's path (the tracking OCP).
 
     Raises :class:`InputError` where the in-process controller would not run hitchpark's compiled solver
@@ -405,12 +429,11 @@ def run_sil(
     """
     settings = sil_settings(scenario.settings, nmpc, process)
     plant = plant or scenario.plant
-    if not scenario.scene.is_empty:
-        raise InputError(f"scenario {scenario.name!r} has obstacles: the exported controller parks in open space only")
-    spec = ExportSpec(scenario.vehicle, settings.nmpc, scenario.start, scenario.goal, plant, scenario.name)
+    obstacles = not scenario.scene.is_empty and settings.nmpc.obstacle_planes > 0
+    spec = ExportSpec(
+        scenario.vehicle, settings.nmpc, scenario.start, scenario.goal, plant, scenario.name, obstacles=obstacles
+    )
     files = package_files(spec)
-    bound = int(next(line for line in files["include/hitchpark_nmpc.h"].splitlines() if "WORKSPACE_BYTES " in line)
-                .split()[-1])  # fmt: skip
     in_process = controller or FullNMPC(scenario.vehicle, settings.nmpc)
     if not takes_free_initial(in_process.solver):
         raise InputError("the in-process controller does not run the compiled riccati_c here (HITCHPARK_JIT=0?)")
@@ -418,12 +441,15 @@ def run_sil(
         built = library or build_package(files, Path(folder) / "package")
         exported = ExportedNMPC(built, scenario.vehicle, settings.nmpc)
         library_bytes = built.stat().st_size
-        c_result = park(scenario.vehicle, scenario.start, scenario.goal, settings, scenario.name, exported, plant)
-    py_result = park(scenario.vehicle, scenario.start, scenario.goal, settings, scenario.name, in_process, plant)
+        c_result = park(scenario.vehicle, scenario.start, scenario.goal, settings, scenario.name, exported, plant,
+                        scenario.scene)  # fmt: skip
+    py_result = park(scenario.vehicle, scenario.start, scenario.goal, settings, scenario.name, in_process, plant,
+                     scenario.scene)  # fmt: skip
     ipopt_ms = None
     if ipopt:
         reference = replace(settings, nmpc=replace(settings.nmpc, solver="ipopt"))
-        ipopt_result = park(scenario.vehicle, scenario.start, scenario.goal, reference, scenario.name, plant=plant)
+        ipopt_result = park(scenario.vehicle, scenario.start, scenario.goal, reference, scenario.name, plant=plant,
+                            scene=scenario.scene)  # fmt: skip
         ipopt_ms = _percentiles(list(_solve_ms(ipopt_result)))
     return SilReport(
         scenario=scenario.name,
@@ -438,7 +464,7 @@ def run_sil(
         python_step_ms=_percentiles(list(_solve_ms(py_result))),
         ipopt_step_ms=ipopt_ms,
         workspace_bytes=exported.workspace_bytes,
-        workspace_bound_bytes=bound,
+        workspace_bound_bytes=exported.workspace_bound_bytes,
         library_bytes=library_bytes,
         steps=len(exported.timing.step_ns),
         paths_followed=exported.paths_followed,

@@ -282,7 +282,11 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="FILE.toml",
         help="maneuver settings whose [nmpc] table (kind full) is exported",
     )
-    p.add_argument("--obstacles", action="store_true", help="the obstacle OCP (not exported yet: refused)")
+    p.add_argument(
+        "--obstacles",
+        action="store_true",
+        help="the obstacle OCP too: it keeps clear of a scene given when it runs (hitchpark_nmpc_keep_clear)",
+    )
     p.add_argument("--force", action="store_true", help="replace the package's files in a folder that holds others")
     _add_vehicle_options(p)
     p.set_defaults(func=_cmd_export)

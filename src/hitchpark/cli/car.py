@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ..checks import InputError
 from .arguments import _plant, scenario_from_arg, vehicle_from_args
 
 
@@ -24,20 +23,22 @@ def _export_spec(args: argparse.Namespace) -> Any:
     else:
         nmpc = sc.settings.nmpc if sc.settings.nmpc.kind == "full" else NMPCSettings()
     vehicle = vehicle_from_args(args, default=sc.vehicle)
-    return ExportSpec(vehicle, nmpc, start=sc.start, goal=sc.goal, plant=sc.plant, scenario=sc.name)
+    return ExportSpec(
+        vehicle, nmpc, start=sc.start, goal=sc.goal, plant=sc.plant, scenario=sc.name, obstacles=args.obstacles
+    )
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
     from ..app.export import package_files, write_package
 
-    if args.obstacles:
-        raise InputError("--obstacles: the obstacle OCP is not exported yet; export the open-space NMPC without it")
     spec = _export_spec(args)
     files = package_files(spec)
     out = write_package(args.out, files, force=args.force)
     header = files["include/hitchpark_nmpc.h"]
     bound = next(line.split()[-1] for line in header.splitlines() if "WORKSPACE_BYTES " in line)
-    print(f"wrote {len(files)} files to {out}: the full-model NMPC, horizon {spec.nmpc.horizon}, workspace {bound} B")
+    among = ", among obstacles" if spec.obstacles else ""
+    print(f"wrote {len(files)} files to {out}: the full-model NMPC{among}, horizon {spec.nmpc.horizon}, "
+          f"workspace {bound} B")  # fmt: skip
     print(f"build: make -C {out}  (or cmake -S {out} -B {out}/build && cmake --build {out}/build)")
     return 0
 

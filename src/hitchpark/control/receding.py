@@ -253,10 +253,13 @@ class RecedingHorizon:
 
     def _general_solver(self, program: Program | None = None) -> Any:
         """The primary route, or a general one if the primary needs every equality of the transcription kept:
-        the fallback, else IPOPT (the cold start's rounds among obstacles build on its iterates)."""
+        the fallback, else IPOPT (the cold start's rounds among obstacles build on its iterates). Without a
+        fallback, a primary that takes every problem and answers with its iterates (``riccati_c``) is its own
+        general route, as in the exported package, which has no other solver."""
         assert self.settings.solver is not None
         program = program or self._program
-        if not ROUTES[self.settings.solver].structured:
+        structured = ROUTES[self.settings.solver].structured
+        if not structured or (self.settings.fallback_solver is None and takes_free_initial(program.solver)):
             return program.solver
         if program.general is None:
             general = self.settings.fallback_solver

@@ -31,6 +31,9 @@
 #include <stddef.h>
 #include <stdint.h>
 #include "hitchpark_nmpc_internal.h"
+#if HPC_OBSTACLES
+#include "geometry/clearance_lines.c" /* hitchpark's own file, as the in-process controller compiles it */
+#endif
 
 #define HPC_MAGIC 0x4e4d5043UL
 #define HPC_PI 3.141592653589793
@@ -55,6 +58,22 @@ struct hitchpark_nmpc {
   hpc_real path[5][HITCHPARK_NMPC_MAX_PATH]; /* x, y, yaw, hitch, steer, parking frame */
   hpc_real path_s[HITCHPARK_NMPC_MAX_PATH];  /* arc length */
   hpc_real speed, brake, length, progress, deviation;
+  hitchpark_nmpc_pose goal; /* the goal of this tick */
+#if HPC_OBSTACLES
+  /* the scene kept clear of (hitchpark_nmpc_keep_clear; n_pieces 0: open space): convex pieces, each padded to
+     `size` vertices with its last (obstacles._padded), in the world frame and in the goal's (framed) */
+  int n_pieces, size, framed;
+  hitchpark_nmpc_pose framed_goal;
+  hpc_real clearance, base_clearance;
+  hpc_real world[HITCHPARK_NMPC_MAX_PIECES * HITCHPARK_NMPC_MAX_VERTICES * 2];
+  hpc_real vertices[HITCHPARK_NMPC_MAX_PIECES * HITCHPARK_NMPC_MAX_VERTICES * 2];
+  hpc_real edges[HITCHPARK_NMPC_MAX_PIECES * HITCHPARK_NMPC_MAX_VERTICES * 4];
+  hpc_real outward[HITCHPARK_NMPC_MAX_PIECES * HITCHPARK_NMPC_MAX_VERTICES * 2];
+  hpc_real real_edge[HITCHPARK_NMPC_MAX_PIECES * HITCHPARK_NMPC_MAX_VERTICES];
+  hpc_real scratch[HITCHPARK_NMPC_MAX_PIECES * (6 + HITCHPARK_NMPC_MAX_VERTICES)];
+  hpc_real states[(HPC_N + 1) * HPC_NX];          /* X_0..X_N the lines are drawn around */
+  hpc_real guess[HPC_NW], start[HPC_NW], iterate[HPC_NW]; /* a cold start's */
+#endif
   HPC_OCPS(HPC_BLOCK)
 };
 #undef HPC_BLOCK
@@ -63,7 +82,7 @@ struct hitchpark_nmpc {
 #define HPC_INDEX(name) HPC_OCP_##name,
 enum { HPC_OCPS(HPC_INDEX) HPC_N_OCPS };
 #undef HPC_INDEX
-#define HPC_ENTRY(name) {hpc_##name##_cascade, hpc_##name##_plan, hpc_##name##_report},
+#define HPC_ENTRY(name) {hpc_##name##_cascade, hpc_##name##_solve_from, hpc_##name##_plan, hpc_##name##_report},
 static const struct hpc_ocp hpc_ocps[HPC_N_OCPS] = {HPC_OCPS(HPC_ENTRY)};
 #undef HPC_ENTRY
 #define HPC_OFFSET(name) offsetof(struct hitchpark_nmpc, name),
@@ -151,6 +170,10 @@ void hpc_call(struct hpc_shared* sh, hpc_function f, const hpc_real* x, const hp
 
 hpc_real hpc_next_first_step(const struct hpc_shared* sh, hpc_real* part) {
   hpc_real left;
+  if (!sh->first_param) { /* equal steps from each sample: the plan moves on a sample's part of a step */
+    *part = HPC_DT / HPC_PREDICTION_DT;
+    return HPC_PREDICTION_DT;
+  }
   *part = 1.0;
   if (!sh->has_last) return HPC_PREDICTION_DT;
   left = sh->first_step - HPC_DT;
@@ -276,11 +299,23 @@ static void hpc_track(struct hitchpark_nmpc* c, hpc_real* x0) {
   }
 }
 
-/* The solve cascade of the OCP of the moment (tracking or not); its codes kept. */
+/* The OCP of the moment (FullNMPC._program_for): tracking a path or not, among obstacles or not. */
+static void hpc_choose(struct hitchpark_nmpc* c) {
+#if HPC_OBSTACLES
+  if (c->n_pieces > 0) {
+    c->ocp = c->path_n > 0 ? HPC_OCP_track_lines : HPC_OCP_park_lines;
+    c->sh.first_param = 0;
+    return;
+  }
+#endif
+  c->ocp = c->path_n > 0 ? HPC_OCP_track : HPC_OCP_park;
+  c->sh.first_param = 1;
+}
+
+/* The solve cascade of the OCP of the moment; its codes kept. */
 static int hpc_cascade(struct hitchpark_nmpc* c, const hpc_real* x0, int free) {
   struct hpc_report r;
   int code;
-  c->ocp = c->path_n > 0 ? HPC_OCP_track : HPC_OCP_park;
   code = hpc_ocps[c->ocp].cascade(hpc_block(c, c->ocp), &c->sh, x0, free);
   hpc_ocps[c->ocp].report(hpc_block(c, c->ocp), &r);
   c->solver_code = r.solver_code;
@@ -293,6 +328,110 @@ static int hpc_cascade(struct hitchpark_nmpc* c, const hpc_real* x0, int free) {
 static const hpc_real* hpc_plan(const struct hitchpark_nmpc* c) {
   return hpc_ocps[c->ocp].plan(hpc_block_const(c, c->ocp));
 }
+
+/* ------------------------------------------------------------------ the scene (ClearanceConstraints) */
+#if HPC_OBSTACLES
+static const double hpc_shape[9] = HPC_SHAPE; /* obstacles.vehicle_shape */
+
+static struct hitchpark_nmpc* hpc_of(struct hpc_shared* sh) {
+  return (struct hitchpark_nmpc*) (void*) ((unsigned char*) sh - offsetof(struct hitchpark_nmpc, sh));
+}
+
+/* The pieces in the goal's frame (ClearanceConstraints._in_goal_frame), again when the goal changes. */
+static void hpc_frame(struct hitchpark_nmpc* c) {
+  const hitchpark_nmpc_pose* g = &c->goal;
+  hpc_real cg, sg;
+  int j, v, n = c->size;
+  if (c->framed && c->framed_goal.x == g->x && c->framed_goal.y == g->y && c->framed_goal.yaw == g->yaw) return;
+  cg = cos(g->yaw);
+  sg = sin(g->yaw);
+  for (j = 0; j < c->n_pieces; ++j)
+    for (v = 0; v < n; ++v) { /* goal_frame_position */
+      const hpc_real* p = c->world + 2 * (n * j + v);
+      hpc_real dx = p[0] - g->x, dy = p[1] - g->y;
+      c->vertices[2 * (n * j + v)] = cg * dx + sg * dy;
+      c->vertices[2 * (n * j + v) + 1] = -sg * dx + cg * dy;
+    }
+  for (j = 0; j < c->n_pieces; ++j)
+    for (v = 0; v < n; ++v) {
+      const hpc_real* a = c->vertices + 2 * (n * j + v);
+      const hpc_real* b = c->vertices + 2 * (n * j + (v + 1) % n);
+      hpc_real dx = b[0] - a[0], dy = b[1] - a[1], length = hypot(dx, dy);
+      hpc_real* e = c->edges + 4 * (n * j + v);
+      hpc_real* o = c->outward + 2 * (n * j + v);
+      e[0] = a[0], e[1] = a[1], e[2] = b[0], e[3] = b[1];
+      o[0] = c->real_edge[n * j + v] != 0.0 ? dy / length : 0.0; /* right of a counter-clockwise edge */
+      o[1] = c->real_edge[n * j + v] != 0.0 ? -dx / length : 0.0;
+    }
+  c->framed_goal = *g;
+  c->framed = 1;
+}
+
+void hpc_draw_lines(struct hpc_shared* sh, const hpc_real* w, const hpc_real* x0, int keep_warm) {
+  struct hitchpark_nmpc* c = hpc_of(sh);
+  int k, i;
+  hpc_frame(c);
+  for (k = 0; k <= HPC_N; ++k)
+    for (i = 0; i < HPC_NX; ++i) c->states[k * HPC_NX + i] = k == 0 ? x0[i] : w[k * HPC_NV + i];
+  hp_clearance_lines(HPC_N, c->states, HPC_NX, hpc_shape, c->n_pieces, c->size, c->vertices, c->edges, c->outward,
+                     c->real_edge, HPC_PLANES, c->clearance, 1, keep_warm, c->scratch, sh->lines);
+}
+
+/* ClearanceConstraints.least_slack: the least n . p - (h + c) over the corners of X_1..X_N of w. */
+static hpc_real hpc_least_slack(const hpc_real* w, const hpc_real* lines) {
+  hpc_real least = INFINITY, quads[4 * 8];
+  int k, b, corner, t, n_bodies;
+  for (k = 1; k <= HPC_N; ++k) {
+    n_bodies = (int) hp_bodies(w + k * HPC_NV, hpc_shape, quads);
+    for (b = 0; b < n_bodies; ++b)
+      for (corner = 0; corner < 4; ++corner)
+        for (t = 0; t < HPC_PLANES; ++t) {
+          const hpc_real* line = lines + (k - 1) * HPC_NL + 3 * (b * HPC_PLANES + t);
+          const hpc_real* p = quads + 8 * b + 2 * corner;
+          hpc_real row = line[0] * p[0] + line[1] * p[1] - line[2];
+          if (row < least) least = row; /* Python's min */
+        }
+  }
+  return least;
+}
+
+static int hpc_all_finite(const hpc_real* v, int n) {
+  int i;
+  for (i = 0; i < n; ++i)
+    if (!isfinite(v[i])) return 0;
+  return 1;
+}
+
+void hpc_cold_start(struct hpc_shared* sh, hpc_real* w, const hpc_real* x0, int free) {
+  struct hitchpark_nmpc* c = hpc_of(sh);
+  int plain = c->path_n > 0 ? HPC_OCP_track : HPC_OCP_park, round, code;
+  int ok;
+  memcpy(c->guess, w, sizeof(c->guess));
+  /* The plan without lines, from the guess: clear wherever the car can be clear. */
+  code = hpc_ocps[plain].solve_from(hpc_block(c, plain), sh, x0, c->guess, free); /* its first step: first_now */
+  ok = code == 0;
+  memcpy(c->start, ok ? hpc_ocps[plain].plan(hpc_block(c, plain)) : c->guess, sizeof(c->start));
+  if (ok) {
+    hpc_draw_lines(sh, c->start, x0, 0);
+    if (hpc_least_slack(c->start, sh->lines) >= 0.0) { /* it meets the lines drawn around it */
+      memcpy(w, c->start, sizeof(c->start));
+      return;
+    }
+  }
+  /* The obstacle OCP around it, again around its last iterate, up to COLD_ROUNDS rounds. */
+  memcpy(c->iterate, c->start, sizeof(c->iterate));
+  for (round = 0; round < HPC_COLD_ROUNDS; ++round) {
+    code = hpc_ocps[c->ocp].solve_from(hpc_block(c, c->ocp), sh, x0, c->iterate, free);
+    memcpy(c->iterate, hpc_ocps[c->ocp].plan(hpc_block(c, c->ocp)), sizeof(c->iterate));
+    if (!hpc_all_finite(c->iterate, HPC_NW)) break;
+    if (code == 0) {
+      memcpy(w, c->iterate, sizeof(c->iterate));
+      return;
+    }
+  }
+  memcpy(w, c->start, sizeof(c->start));
+}
+#endif
 
 static int hpc_valid(const struct hitchpark_nmpc* c) { return c != 0 && c->magic == HPC_MAGIC; }
 
@@ -311,6 +450,8 @@ static void hpc_status(hitchpark_nmpc_status* status, const struct hitchpark_nmp
 }
 
 size_t hitchpark_nmpc_workspace_size(void) { return sizeof(struct hitchpark_nmpc); }
+
+size_t hitchpark_nmpc_workspace_bound(void) { return HITCHPARK_NMPC_WORKSPACE_BYTES; }
 
 hitchpark_nmpc* hitchpark_nmpc_init(void* memory, size_t bytes) {
   struct hitchpark_nmpc* c = (struct hitchpark_nmpc*) memory;
@@ -349,6 +490,52 @@ int hitchpark_nmpc_follow(hitchpark_nmpc* c, const hitchpark_real* path, int n, 
   c->brake = 0.5 * max_accel;
   c->progress = c->deviation = 0.0; /* PathReference.reset */
   c->sh.has_last = 0;               /* FullNMPC.follow resets the controller */
+  return 0;
+}
+
+int hitchpark_nmpc_keep_clear(hitchpark_nmpc* c, const hitchpark_real* vertices, const int* counts, int n_pieces,
+                              hitchpark_real clearance) {
+#if HPC_OBSTACLES
+  int j, v, at = 0, size = 0;
+  if (!hpc_valid(c)) return HITCHPARK_NMPC_E_WORKSPACE;
+  if (n_pieces < 0 || n_pieces > HITCHPARK_NMPC_MAX_PIECES || !(clearance >= 0.0 && clearance <= 10.0))
+    return HITCHPARK_NMPC_E_ARGUMENT;
+  if (n_pieces > 0 && (!vertices || !counts)) return HITCHPARK_NMPC_E_NULL;
+  for (j = 0; j < n_pieces; ++j) {
+    if (counts[j] < 3 || counts[j] > HITCHPARK_NMPC_MAX_VERTICES) return HITCHPARK_NMPC_E_ARGUMENT;
+    if (!hpc_finite(vertices + 2 * at, 2 * counts[j])) return HITCHPARK_NMPC_E_ARGUMENT;
+    at += counts[j];
+    if (counts[j] > size) size = counts[j];
+  }
+  at = 0;
+  for (j = 0; j < n_pieces; ++j) { /* each piece padded with its last vertex (obstacles._padded) */
+    for (v = 0; v < size; ++v) {
+      int from = at + (v < counts[j] ? v : counts[j] - 1);
+      c->world[2 * (size * j + v)] = vertices[2 * from];
+      c->world[2 * (size * j + v) + 1] = vertices[2 * from + 1];
+      c->real_edge[size * j + v] = v < counts[j] - 1 || v == size - 1;
+    }
+    at += counts[j];
+  }
+  c->n_pieces = n_pieces;
+  c->size = size;
+  c->framed = 0;
+  c->clearance = c->base_clearance = clearance;
+  c->sh.has_last = 0; /* FullNMPC.keep_clear resets the controller */
+  return 0;
+#else
+  (void) vertices, (void) counts, (void) clearance;
+  if (!hpc_valid(c)) return HITCHPARK_NMPC_E_WORKSPACE;
+  return n_pieces == 0 ? 0 : HITCHPARK_NMPC_E_ARGUMENT; /* exported without the obstacle OCP */
+#endif
+}
+
+int hitchpark_nmpc_ease_clearance(hitchpark_nmpc* c, hitchpark_real clearance) {
+  if (!hpc_valid(c)) return HITCHPARK_NMPC_E_WORKSPACE;
+  if (!isfinite(clearance)) return HITCHPARK_NMPC_E_ARGUMENT;
+#if HPC_OBSTACLES
+  c->clearance = clearance < c->base_clearance ? clearance : c->base_clearance; /* min(base, clearance) */
+#endif
   return 0;
 }
 
@@ -401,6 +588,8 @@ int hitchpark_nmpc_step(hitchpark_nmpc* c, const hitchpark_nmpc_measurement* mea
     return code;
   }
   hpc_clear(c);
+  hpc_choose(c);
+  c->goal = *goal;
   x0 = c->sh.x0;
   hpc_state(c, meas, goal, in_flight, n_in_flight, x0);
   code = hpc_refused(x0);
@@ -443,6 +632,8 @@ int hitchpark_nmpc_initial_steer(hitchpark_nmpc* c, const hitchpark_nmpc_measure
     return code;
   }
   hpc_clear(c);
+  hpc_choose(c);
+  c->goal = *goal;
   hpc_state(c, meas, goal, 0, 0, c->sh.x0);
   code = hpc_refused(c->sh.x0);
   if (code != 0) {

@@ -37,6 +37,10 @@ typedef HITCHPARK_REAL hitchpark_real;
 #define HITCHPARK_NMPC_MAX_IN_FLIGHT 50
 /* The most points of a path hitchpark_nmpc_follow takes (hitchpark samples its paths every 5 cm). */
 #define HITCHPARK_NMPC_MAX_PATH @MAX_PATH@
+/* The largest scene hitchpark_nmpc_keep_clear takes: convex pieces, and vertices a piece (a package exported with
+ * --obstacles; without, it takes none). */
+#define HITCHPARK_NMPC_MAX_PIECES @MAX_PIECES@
+#define HITCHPARK_NMPC_MAX_VERTICES @MAX_VERTICES@
 
 /* Memory for one controller, aligned for any of its members. */
 typedef union {
@@ -97,8 +101,9 @@ typedef struct hitchpark_nmpc hitchpark_nmpc;
 /* Lay a controller out in `memory` (`bytes` of it, aligned for a double); NULL if it does not fit. */
 hitchpark_nmpc* hitchpark_nmpc_init(void* memory, size_t bytes);
 
-/* The bytes a controller takes in this build (at most HITCHPARK_NMPC_WORKSPACE_BYTES). */
+/* The bytes a controller takes in this build (at most HITCHPARK_NMPC_WORKSPACE_BYTES), and that bound. */
 size_t hitchpark_nmpc_workspace_size(void);
+size_t hitchpark_nmpc_workspace_bound(void);
 
 /* Forget the last plan: call at the start of each reverse stage, with the actual steer [rad] (what a stop holds). */
 int hitchpark_nmpc_reset(hitchpark_nmpc* nmpc, hitchpark_real front_steer);
@@ -128,6 +133,19 @@ int hitchpark_nmpc_step(hitchpark_nmpc* nmpc, const hitchpark_nmpc_measurement* 
  * prediction step moves along the path. Resets the controller (as hitchpark_nmpc_reset, the steer kept). */
 int hitchpark_nmpc_follow(hitchpark_nmpc* nmpc, const hitchpark_real* path, int n, hitchpark_real speed,
                           hitchpark_real max_accel);
+
+/* Keep the bodies `clearance` [m] (0..10) from a scene from now on (the obstacle OCP: each prediction step keeps
+ * every body on the free side of a separating line from each of the nearest pieces), or, with n_pieces = 0, park in
+ * open space. The scene: n_pieces convex polygons, counter-clockwise, in the world frame, their vertices one after
+ * another (x, y each; counts[j] of them for piece j, 3..HITCHPARK_NMPC_MAX_VERTICES): hitchpark's
+ * obstacles.convex_pieces of a scene (each convex obstacle, the triangles of the others and of the ground outside
+ * the area). Resets the controller (as hitchpark_nmpc_reset, the steer kept). */
+int hitchpark_nmpc_keep_clear(hitchpark_nmpc* nmpc, const hitchpark_real* vertices, const int* counts, int n_pieces,
+                              hitchpark_real clearance);
+
+/* From now on keep `clearance` [m] where that is less than hitchpark_nmpc_keep_clear asked (what it asked otherwise):
+ * for a stage that begins nearer than that. The controller is not reset. */
+int hitchpark_nmpc_ease_clearance(hitchpark_nmpc* nmpc, hitchpark_real clearance);
 
 /* Tracking: the arc length [m] of the path's point nearest the trailer axle, and the axle's distance from it [m]
  * (to give up on a path strayed from). Either may be NULL. */
