@@ -53,6 +53,7 @@ __all__ = [
     "REACH_M",
     "ClearanceConstraints",
     "convex_pieces",
+    "prepare_clearance",
     "vehicle_shape",
 ]
 
@@ -79,6 +80,13 @@ def _kernel(compiling: bool, cache: str | None) -> Any:
     return source_function(
         "clearance_lines", CLEARANCE_LINES_SOURCE, "hp_clearance_lines", argtypes, (SEPARATING_LINES_SOURCE,)
     )
+
+
+def prepare_clearance() -> bool:
+    """Compile (or load) the compiled parameters now, not inside a tick or a planner's clock (and the lines they
+    draw on); False where they do not compile (:meth:`ClearanceConstraints.parameters` then runs NumPy's)."""
+    prepare_lines()
+    return _kernel(jit_available(), os.environ.get("HITCHPARK_CACHE")) is not None
 
 
 def vehicle_shape(vehicle: VehicleTrailer) -> np.ndarray:
@@ -187,8 +195,7 @@ class ClearanceConstraints:
         if scene != self._scene:
             pieces = convex_pieces(scene)
             self._scene, self._pieces, self._framed = scene, (_padded(pieces) if pieces else None), None
-            prepare_lines()
-            _kernel(jit_available(), os.environ.get("HITCHPARK_CACHE"))  # compiled now, not inside a tick
+            prepare_clearance()  # compiled now, not inside a tick
         self._clearance = float(clearance_m)
 
     def _in_goal_frame(self, goal: Pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -13,7 +13,7 @@ from ..model.checker import prepare_distances
 from ..model.scene import Scene
 from ..model.state import Pose
 from ..model.vehicle import VehicleTrailer
-from ..ocp.separating import prepare_lines
+from ..ocp.obstacles import prepare_clearance
 from .discs import prepare_discs
 from .endgame import EndGame
 from .motion import PrimitiveBatch
@@ -60,7 +60,7 @@ def prepare(
         planes = 0 if scene.is_empty else REFINE_PLANES
         refine_solver(vehicle, vehicle.max_hitch - settings.hitch_margin, planes, settings.refine_solver)
         if planes:
-            prepare_lines()  # the refinement's lines around the scene
+            prepare_clearance()  # the refinement's lines around the scene
     return tree, reach
 
 
