@@ -14,17 +14,21 @@
 #include "hitchpark_nmpc.h"
 #include "example_scenario.h"
 
+static volatile long allocations = 0; /* volatile: read afresh after every call */
+
+#ifndef NOT_COUNTED /* -DNOT_COUNTED: the same loop under the sanitizers, which bring their own allocator */
 extern void* __libc_malloc(size_t size);
 extern void* __libc_calloc(size_t n, size_t size);
 extern void* __libc_realloc(void* p, size_t size);
 extern void __libc_free(void* p);
 
-static volatile long allocations = 0; /* volatile: read afresh after every call */
-
 void* malloc(size_t size) { ++allocations; return __libc_malloc(size); }
 void* calloc(size_t n, size_t size) { ++allocations; return __libc_calloc(n, size); }
 void* realloc(void* p, size_t size) { ++allocations; return __libc_realloc(p, size); }
 void free(void* p) { __libc_free(p); }
+#else
+#include <stdlib.h>
+#endif
 
 int hitchpark_example_plant(const hitchpark_real** arg, hitchpark_real** res, long long int* iw, hitchpark_real* w,
                             int mem);

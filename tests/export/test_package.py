@@ -263,8 +263,9 @@ def test_the_library_needs_nothing_but_libm_and_the_clock_it_names(built, c_comp
 
 @pytest.mark.slow
 def test_the_example_runs_clean_under_the_address_and_undefined_sanitizers(open_space_files, tmp_path, c_compiler):
-    """The default package (parking and tracking in open space) and its example built with AddressSanitizer and
-    UndefinedBehaviorSanitizer: the example's closed loop parks with nothing reported."""
+    """The default package (parking and tracking in open space) built with AddressSanitizer and
+    UndefinedBehaviorSanitizer: the example's closed loop parks, and the 2,000 steps of the allocation test's loop
+    (restarts, a NaN hitch every 97th) run, with nothing reported."""
     probe = tmp_path / "probe.c"
     probe.write_text("int main(void) { return 0; }\n")
     sanitize = ["-g", "-O0", "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"]
@@ -272,8 +273,27 @@ def test_the_example_runs_clean_under_the_address_and_undefined_sanitizers(open_
         pytest.skip(f"{c_compiler} builds no sanitized program on this machine")
     folder = tmp_path / "pkg"
     copy_package(open_space_files, folder)
-    done = _build(c_compiler, folder, *sanitize)
-    assert done.returncode == 0, done.stderr
+    include = [f"-I{folder / 'include'}", f"-I{folder / 'examples'}"]
+    objects = []
+    for source in sorted((folder / "src").glob("*.c")):
+        obj = folder / (source.stem + ".o")
+        done = subprocess.run([c_compiler, *WARNINGS, *sanitize, *include, "-c", str(source), "-o", str(obj)],
+                              capture_output=True, text=True)  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        objects.append(str(obj))
+    plant = str(folder / "examples" / "example_plant.c")
+    loops = {  # the example, and the allocation test's loop without its counting allocator
+        "example": [*WARNINGS, *sanitize, str(folder / "examples" / "main.c")],
+        "steps": ["-std=gnu99", "-DNOT_COUNTED", *sanitize, str(Path(__file__).with_name("allocations.c"))],
+    }
+    for name, flags_and_sources in loops.items():
+        command = [c_compiler, *include, *flags_and_sources, plant, *objects, "-lm", "-o", str(folder / name)]
+        done = subprocess.run(command, capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
     run = subprocess.run([str(folder / "example")], capture_output=True, text=True, timeout=300)
     assert run.returncode == 0 and not run.stderr.strip(), run.stderr[-2000:]  # parked, and nothing reported
     assert len(run.stdout.splitlines()) > 100
+    run = subprocess.run([str(folder / "steps")], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0 and not run.stderr.strip(), run.stderr[-2000:]
+    solved, refused = map(int, run.stdout.split()[3:])
+    assert solved + refused == 2000 and refused >= 2000 // 97
