@@ -80,8 +80,10 @@ static void hp_line(const double *points, const double *anchor, const hp_pieces 
     if (hypot(apart[0], apart[1]) <= HP_REACH) {
         for (hp_int v = 0; v < size; v++) {
             double gap, normal[2], unused;
+            /* An edge that is not real (a padded piece's repeats) has gap inf, which never wins: not drawn. Edge 0
+               is always real, so the first taken is. */
+            if (real[v] == 0.0) continue;
             hp_separating_lines(1, 4, points, 1, pc->edges + 4 * (size * j + v), 0, out + 2 * v, 0, &gap, normal, &unused);
-            if (real[v] == 0.0) gap = INFINITY;
             if (i_best < 0 || better(gap, best)) i_best = v, best = gap, nearest[0] = normal[0], nearest[1] = normal[1];
         }
     } else {
