@@ -163,6 +163,10 @@ def test_the_python_face_of_the_library_refuses_what_it_cannot_do(library):
     with pytest.raises(ValueError, match="clearance_m"):
         nmpc.keep_clear(Scene((wall,)), 11.0)
     nmpc.keep_clear(Scene((wall,)), 0.2)  # this package has the obstacle OCP
+    angles = np.linspace(0.0, 2.0 * np.pi, 20, endpoint=False)
+    tank = Obstacle("tank", np.column_stack([5.0 + np.cos(angles), 5.0 + np.sin(angles)]))  # convex, 20 vertices
+    with pytest.raises(ValueError, match="at most 16 vertices each"):
+        nmpc.keep_clear(Scene((tank,)), 0.2)
     # The C refuses a scene it cannot take: a piece of two vertices, a NaN, too many pieces, none given.
     square = (ctypes.c_double * 8)(0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0)
     for counts, n, code in (((2,), 1, 9), ((4,), 1_000_000, 9), ((4,), 1, 0)):

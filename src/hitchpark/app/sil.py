@@ -40,7 +40,7 @@ from ..ocp.obstacles import convex_pieces
 from ..ocp.reference import PathReference
 from ..ocp.settings import NMPCSettings
 from ..solvers.registry import takes_free_initial
-from .export import ExportSpec, copy_package, library_sources, package_files
+from .export import MAX_PIECES, MAX_VERTICES, ExportSpec, copy_package, library_sources, package_files
 
 __all__ = ["ExportedNMPC", "SilReport", "build_package", "run_sil", "sil_settings"]
 
@@ -210,8 +210,15 @@ class ExportedNMPC(FullNMPC):
         vertices = (_REAL * len(flat))(*flat)
         code = self._lib.hitchpark_nmpc_keep_clear(self._handle, vertices, counts, len(pieces), float(clearance_m))
         if code != 0:
-            why = "no obstacle OCP (export --obstacles)" if pieces else f"code {code}"
-            raise InputError(f"the exported controller refused the scene ({len(pieces)} convex pieces): {why}")
+            largest = max((len(p) for p in pieces), default=0)
+            too_large = len(pieces) > MAX_PIECES or largest > MAX_VERTICES  # else: a package without the OCP
+            why = (
+                f"it takes at most {MAX_PIECES} convex pieces of at most {MAX_VERTICES} vertices each, this scene "
+                f"has {len(pieces)}, the largest of {largest}"
+                if too_large
+                else "it was exported without the obstacle OCP (export --obstacles)"
+            )
+            raise InputError(f"the exported controller refused the scene: {why}")
         self._clearance_m = self._base_clearance_m = float(clearance_m)
 
     def ease_clearance(self, clearance_m: float) -> None:
