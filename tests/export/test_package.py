@@ -17,7 +17,8 @@ import pytest
 from flags import WARNINGS
 
 from hitchpark.app.export import PACKAGE_FILES, copy_package
-from hitchpark.app.sil import ExportedNMPC, _Command, _Measurement, _Pose, _Status, sil_settings
+from hitchpark.app.exported import ExportedNMPC, _Command, _Measurement, _Pose, _Status
+from hitchpark.app.sil import sil_settings
 from hitchpark.maneuver.process import park
 from hitchpark.maneuver.scenario import builtin_scenario
 from hitchpark.model.plant import Command, Measurement

@@ -154,7 +154,7 @@ static hpc_real hpc_wrap(hpc_real a) {
   return w >= HPC_PI ? w - 2.0 * HPC_PI : w;
 }
 
-static int hpc_finite(const hpc_real* v, int n) {
+int hpc_finite(const hpc_real* v, int n) {
   int i;
   for (i = 0; i < n; ++i)
     if (!isfinite(v[i])) return 0;
@@ -395,13 +395,6 @@ static hpc_real hpc_least_slack(const hpc_real* w, const hpc_real* lines) {
   return least;
 }
 
-static int hpc_all_finite(const hpc_real* v, int n) {
-  int i;
-  for (i = 0; i < n; ++i)
-    if (!isfinite(v[i])) return 0;
-  return 1;
-}
-
 void hpc_cold_start(struct hpc_shared* sh, hpc_real* w, const hpc_real* x0, int free) {
   struct hitchpark_nmpc* c = hpc_of(sh);
   int plain = c->path_n > 0 ? HPC_OCP_track : HPC_OCP_park, round, code;
@@ -423,7 +416,7 @@ void hpc_cold_start(struct hpc_shared* sh, hpc_real* w, const hpc_real* x0, int 
   for (round = 0; round < HPC_COLD_ROUNDS; ++round) {
     code = hpc_ocps[c->ocp].solve_from(hpc_block(c, c->ocp), sh, x0, c->iterate, free);
     memcpy(c->iterate, hpc_ocps[c->ocp].plan(hpc_block(c, c->ocp)), sizeof(c->iterate));
-    if (!hpc_all_finite(c->iterate, HPC_NW)) break;
+    if (!hpc_finite(c->iterate, HPC_NW)) break;
     if (code == 0) {
       memcpy(w, c->iterate, sizeof(c->iterate));
       return;

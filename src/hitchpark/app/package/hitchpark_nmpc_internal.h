@@ -46,6 +46,8 @@ int HPC_PREDICT_STEP(const hpc_real** arg, hpc_real** res, casadi_int* iw, hpc_r
 
 /* f(x, u) into out, in the shared work arrays. */
 void hpc_call(struct hpc_shared* sh, hpc_function f, const hpc_real* x, const hpc_real* u, hpc_real* out);
+/* 1: every one of v[0..n) finite. */
+int hpc_finite(const hpc_real* v, int n);
 /* NumPy's clip of one number. */
 hpc_real hpc_clip(hpc_real v, hpc_real lo, hpc_real hi);
 /* The next problem's first prediction step, and in part how far the last plan moves on to it. */
