@@ -20,12 +20,12 @@ def block_bound(config: dict[str, int]) -> int:
     nc = 2 * nr + 2 * nv
     nw, ng = (N + 1) * nv - nu, nx + N * nx + N * nr
     reals = (
-        3 * nv + nc + 3 * nc + 4 * nc + nc + 2 * nx + 2 + nv + 2 * nx + nx * nv + 2 * nra + nra * nx
+        3 * nv + nc + 3 * nc + 4 * nc + nc + 4 * nc + 2 * nx + 2 + nv + 2 * nx + nx * nv + 2 * nra + nra * nx
         + 2 * nv * nv + nv + nx * nx + nx + nu * nu + nu * nx + 2 * nu + nx
     )  # fmt: skip
     stage = 8 * reals + _r8(nc) + 8
     work = (N + 1) * stage + 8 * (config["HP_SZ_ARG"] + config["HP_SZ_RES"] + config["HP_SZ_IW"] + config["HP_SZ_W"])
-    work += 8 * nx + _r8(nx) + 8 + 8 * nx * nx + 16 + 16 * (config["HP_MAX_ITER"] + 1) + 8 + 16 + 8 + 8
+    work += 8 * nx + _r8(nx) + 8 + 8 * nx * nx + 16 + 16 * (config["HP_MAX_ITER"] + 1) + 8 + 16 + 8 + 8 + 8
     n_par = nx + N * config["HP_NP"] + config["HP_H0"]
     return _r8(work + 8 * (7 * nw + 6 * ng + n_par + 2) + 16 + 8)
 

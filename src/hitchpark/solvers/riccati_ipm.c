@@ -50,6 +50,7 @@
 #endif
 #include <math.h>
 #include <string.h>
+#include <stdint.h>
 
 #define HP_MIN_STEP 1e-12 /* the least step the line search tries */
 #define HP_MU_COLD 0.1    /* mu from a cold start (IPOPT's mu_init), brought down to HP_MU */
@@ -63,6 +64,11 @@
 
 typedef casadi_real real;
 
+/* fmax and fmin, inline: GCC calls libm's for each (maxsd alone differs on a NaN). A NaN argument loses, and of
+ * two equal arguments the second is returned, as glibc's on x86-64 (the bits are the same as before). */
+static real hp_fmax(real a, real b) { return a > b || b != b ? a : b; }
+static real hp_fmin(real a, real b) { return a < b || b != b ? a : b; }
+
 struct hp_stage {
   real w[HP_NV], dw[HP_NV], wt[HP_NV];       /* X_k (and U_k), its step, the trial point */
   real bound[HP_NC];                         /* each constraint's bound (low: lb, high: ub) */
@@ -70,6 +76,8 @@ struct hp_stage {
   real c[HP_NC], s[HP_NC], z[HP_NC];         /* constraint values, slacks, multipliers */
   real ds[HP_NC], dz[HP_NC], st[HP_NC], ct[HP_NC];
   real tgt[HP_NC];                           /* the step's target of s z: mu, less the corrector's ds dz */
+  real sig[HP_NC], ts[HP_NC];                /* z / s (this iteration's), tgt / s (hp_gradients') */
+  real lg[HP_NC], lgt[HP_NC];                /* log s (once hp_work.lg_ok), log st (the last trial's) */
   real lam[HP_NX], lam_new[HP_NX];           /* multipliers of the rows defining X_k (X_0 = x0, gap k - 1) */
   real cost, cost_t;                         /* stage cost at w and at wt */
   real grad[HP_NV];                          /* cost gradient */
@@ -99,6 +107,7 @@ struct hp_work {
   int filter_size;
   real delta_last;     /* the last inertia correction */
   real mu;             /* the barrier parameter */
+  int lg_ok;           /* every stage's lg holds log s */
   int iterations;
 };
 
@@ -124,8 +133,18 @@ static void hp_row_duals(const struct hp_stage* s, real* out) {
   for (i = 0; i < HP_NR; ++i) out[i] = (s->on[i] ? -s->z[i] : 0.0) + (s->on[HP_NR + i] ? s->z[HP_NR + i] : 0.0);
 }
 
+/* 1: every v[i] finite (its exponent not all ones). The exponent plus one reaches the sign bit where it is all
+ * ones; an OR of those over v, which the compiler vectorizes (a loop of isfinite with an early exit it does not). */
 static int hp_finite(const real* v, int n) {
   int i;
+  if (sizeof(real) == sizeof(uint64_t)) {
+    uint64_t bad = 0, b;
+    for (i = 0; i < n; ++i) {
+      memcpy(&b, v + i, sizeof(b));
+      bad |= (b & 0x7ff0000000000000ULL) + (1ULL << 52);
+    }
+    return !(bad >> 63);
+  }
   for (i = 0; i < n; ++i) if (!isfinite(v[i])) return 0;
   return 1;
 }
@@ -227,19 +246,18 @@ static void hp_slack_step(const struct hp_stage* s, const real* dw, const real* 
 
 /* q = grad - Jc' t, t_j = tgt_j / s_j - Sigma_j r_j (r: the slacks' residual or its correction). */
 static void hp_barrier_gradient(const struct hp_stage* s, int nv, const real* r, real* q) {
-  const real* mu = s->tgt;
   int i, j;
   for (j = 0; j < nv; ++j) q[j] = s->grad[j];
   for (i = 0; i < HP_NR; ++i) {
     real t = 0.0;
-    if (s->on[i]) t += mu[i] / s->s[i] - s->z[i] / s->s[i] * r[i];
-    if (s->on[HP_NR + i]) t -= mu[HP_NR + i] / s->s[HP_NR + i] - s->z[HP_NR + i] / s->s[HP_NR + i] * r[HP_NR + i];
+    if (s->on[i]) t += s->ts[i] - s->sig[i] * r[i];
+    if (s->on[HP_NR + i]) t -= s->ts[HP_NR + i] - s->sig[HP_NR + i] * r[HP_NR + i];
     if (t != 0.0) for (j = 0; j < HP_NX; ++j) q[j] -= s->J[i + HP_NR * j] * t;
   }
   for (i = 0; i < nv; ++i) {
     int lo = 2 * HP_NR + i, hi = 2 * HP_NR + HP_NV + i;
-    if (s->on[lo]) q[i] -= mu[lo] / s->s[lo] - s->z[lo] / s->s[lo] * r[lo];
-    if (s->on[hi]) q[i] += mu[hi] / s->s[hi] - s->z[hi] / s->s[hi] * r[hi];
+    if (s->on[lo]) q[i] -= s->ts[lo] - s->sig[lo] * r[lo];
+    if (s->on[hi]) q[i] += s->ts[hi] - s->sig[hi] * r[hi];
   }
 }
 
@@ -248,7 +266,7 @@ static void hp_barrier_hessian(struct hp_stage* s, int nv, real delta) {
   int i, a, b;
   memcpy(s->Ht, s->hess, sizeof(real) * nv * nv);
   for (i = 0; i < HP_NR; ++i) {
-    real d = (s->on[i] ? s->z[i] / s->s[i] : 0.0) + (s->on[HP_NR + i] ? s->z[HP_NR + i] / s->s[HP_NR + i] : 0.0);
+    real d = (s->on[i] ? s->sig[i] : 0.0) + (s->on[HP_NR + i] ? s->sig[HP_NR + i] : 0.0);
     if (d == 0.0) continue;
     for (b = 0; b < HP_NX; ++b) {
       real jb = d * s->J[i + HP_NR * b];
@@ -258,8 +276,8 @@ static void hp_barrier_hessian(struct hp_stage* s, int nv, real delta) {
   for (i = 0; i < nv; ++i) {
     int lo = 2 * HP_NR + i, hi = 2 * HP_NR + HP_NV + i;
     real d = delta;
-    if (s->on[lo]) d += s->z[lo] / s->s[lo];
-    if (s->on[hi]) d += s->z[hi] / s->s[hi];
+    if (s->on[lo]) d += s->sig[lo];
+    if (s->on[hi]) d += s->sig[hi];
     s->Ht[i + nv * i] += d;
   }
 }
@@ -297,12 +315,10 @@ static void hp_chol_solve(const real* L, int n, real* x) {
 
 /* v = P b + p for the cost to go P, p of the stage after. */
 static void hp_cost_to_go(const struct hp_stage* next, const real* b, real* v) {
-  int i, j;
-  for (i = 0; i < HP_NX; ++i) {
-    real a = next->p[i];
-    for (j = 0; j < HP_NX; ++j) a += next->P[i + HP_NX * j] * b[j];
-    v[i] = a;
-  }
+  int i, j; /* column by column: each v[i] sums in the same order, the inner loop over i vectorizes */
+  for (i = 0; i < HP_NX; ++i) v[i] = next->p[i];
+  for (j = 0; j < HP_NX; ++j)
+    for (i = 0; i < HP_NX; ++i) v[i] += next->P[i + HP_NX * j] * b[j];
 }
 
 /* The backward recursion: factors and the cost to go. 0: every R_bar positive definite. */
@@ -316,12 +332,11 @@ static int hp_backward(struct hp_work* m) {
     const struct hp_stage* n = &m->st[k + 1];
     real PAB[HP_NX * HP_NV], Hb[HP_NV * HP_NV], v[HP_NX], qb[HP_NV];
     /* PAB = P_{k+1} AB; Hb = Ht + AB' PAB; qb = qt + AB' (P b + p). */
-    for (j = 0; j < HP_NV; ++j)
-      for (i = 0; i < HP_NX; ++i) {
-        real a = 0.0;
-        for (l = 0; l < HP_NX; ++l) a += n->P[i + HP_NX * l] * s->AB[l + HP_NX * j];
-        PAB[i + HP_NX * j] = a;
-      }
+    for (j = 0; j < HP_NV; ++j) { /* each entry summed over l in order, as a dot product; the loop over i inside */
+      for (i = 0; i < HP_NX; ++i) PAB[i + HP_NX * j] = 0.0;
+      for (l = 0; l < HP_NX; ++l)
+        for (i = 0; i < HP_NX; ++i) PAB[i + HP_NX * j] += n->P[i + HP_NX * l] * s->AB[l + HP_NX * j];
+    }
     for (j = 0; j < HP_NV; ++j)
       for (i = 0; i <= j; ++i) {
         real a = s->Ht[i + HP_NV * j];
@@ -421,30 +436,27 @@ static void hp_forward(struct hp_work* m, const real* e0) {
   for (k = 0; k <= HP_N; ++k) {
     struct hp_stage* s = &m->st[k];
     memcpy(s->dw, dx, sizeof(dx));
-    for (i = 0; i < HP_NX; ++i) {
-      real a = s->p[i];
-      if (k == 0 && m->free0[i]) { s->lam_new[i] = 0.0; continue; } /* no row: no multiplier */
-      for (j = 0; j < HP_NX; ++j) a += s->P[i + HP_NX * j] * dx[j];
-      s->lam_new[i] = -a;
+    { /* the sums column by column (each entry's in the same order) */
+      real a[HP_NX];
+      for (i = 0; i < HP_NX; ++i) a[i] = s->p[i];
+      for (j = 0; j < HP_NX; ++j)
+        for (i = 0; i < HP_NX; ++i) a[i] += s->P[i + HP_NX * j] * dx[j];
+      for (i = 0; i < HP_NX; ++i) s->lam_new[i] = k == 0 && m->free0[i] ? 0.0 : -a[i]; /* no row: no multiplier */
     }
     if (k == HP_N) break;
-    for (i = 0; i < HP_NU; ++i) {
-      real a = s->kk[i];
-      for (j = 0; j < HP_NX; ++j) a += s->K[i + HP_NU * j] * dx[j];
-      s->dw[HP_NX + i] = a;
-    }
-    for (i = 0; i < HP_NX; ++i) {
-      real a = s->b[i];
-      for (j = 0; j < HP_NV; ++j) a += s->AB[i + HP_NX * j] * s->dw[j];
-      dx[i] = a;
-    }
+    for (i = 0; i < HP_NU; ++i) s->dw[HP_NX + i] = s->kk[i];
+    for (j = 0; j < HP_NX; ++j)
+      for (i = 0; i < HP_NU; ++i) s->dw[HP_NX + i] += s->K[i + HP_NU * j] * dx[j];
+    for (i = 0; i < HP_NX; ++i) dx[i] = s->b[i];
+    for (j = 0; j < HP_NV; ++j)
+      for (i = 0; i < HP_NX; ++i) dx[i] += s->AB[i + HP_NX * j] * s->dw[j];
   }
 }
 
 /* The largest step in (0, 1] that keeps v + a dv >= (1 - tau) v. */
 static real hp_to_boundary(const signed char* on, const real* v, const real* dv, int n, real a, real mu) {
   int i;
-  const real tau = fmax(0.99, 1.0 - mu); /* IPOPT's tau_min 0.99 */
+  const real tau = hp_fmax(0.99, 1.0 - mu); /* IPOPT's tau_min 0.99 */
   for (i = 0; i < n; ++i)
     if (on[i] && dv[i] < 0.0) {
       real r = -tau * v[i] / dv[i];
@@ -474,15 +486,21 @@ static real hp_infeasibility(const struct hp_work* m, const real* x0, int trial)
 }
 
 /* f - mu sum(log s) at w or wt. */
-static real hp_barrier(const struct hp_work* m, int trial) {
+static real hp_barrier(struct hp_work* m, int trial) {
   real sum = 0.0;
-  int k, i;
+  int k, i, fresh = trial || !m->lg_ok; /* log s: the accepted trial's log st, kept */
   for (k = 0; k <= HP_N; ++k) {
-    const struct hp_stage* s = &m->st[k];
+    struct hp_stage* s = &m->st[k];
     const real* sl = trial ? s->st : s->s;
+    real* lg = trial ? s->lgt : s->lg;
     sum += trial ? s->cost_t : s->cost;
-    for (i = 0; i < HP_NC; ++i) if (s->on[i]) sum -= m->mu * log(sl[i]);
+    for (i = 0; i < HP_NC; ++i)
+      if (s->on[i]) {
+        if (fresh) lg[i] = log(sl[i]);
+        sum -= m->mu * lg[i];
+      }
   }
+  if (!trial) m->lg_ok = 1;
   return sum;
 }
 
@@ -530,7 +548,7 @@ static void hp_set_trial(struct hp_work* m, real a) {
 /* The step of the multipliers z from the step of the slacks: dz = tgt / s - z - Sigma ds. */
 static void hp_dual_step(struct hp_stage* s) {
   int i;
-  for (i = 0; i < HP_NC; ++i) s->dz[i] = s->on[i] ? s->tgt[i] / s->s[i] - s->z[i] - s->z[i] / s->s[i] * s->ds[i] : 0.0;
+  for (i = 0; i < HP_NC; ++i) s->dz[i] = s->on[i] ? s->ts[i] - s->z[i] - s->sig[i] * s->ds[i] : 0.0;
 }
 
 /* The step (dw, ds, dz) once the backward recursion is done: the forward one, the slacks' and multipliers'
@@ -574,6 +592,7 @@ static void hp_gradients(struct hp_work* m) {
   for (k = 0; k <= HP_N; ++k) {
     struct hp_stage* s = &m->st[k];
     real r[HP_NC];
+    for (i = 0; i < HP_NC; ++i) s->ts[i] = s->on[i] ? s->tgt[i] / s->s[i] : 0.0;
     for (i = 0; i < HP_NC; ++i) r[i] = s->c[i] - s->s[i];
     hp_barrier_gradient(s, hp_nv(k), r, s->qt);
   }
@@ -614,26 +633,26 @@ static real hp_error(struct hp_work* m, const real* x0, real mu) {
       if (s->on[lo]) r[j] -= s->z[lo];
       if (s->on[hi]) r[j] += s->z[hi];
     }
-    for (j = 0; j < nv; ++j) rd = fmax(rd, fabs(r[j]));
+    for (j = 0; j < nv; ++j) rd = hp_fmax(rd, fabs(r[j]));
     for (j = 0; j < HP_NX; ++j) {
       real gap = k == 0 ? (m->free0[j] ? 0.0 : s->w[j] - x0[j]) : s->w[j] - m->st[k - 1].F[j];
-      pr = fmax(pr, fabs(gap));
+      pr = hp_fmax(pr, fabs(gap));
       sum_l += fabs(s->lam[j]);
     }
     n_l += HP_NX;
     for (i = 0; i < HP_NC; ++i)
       if (s->on[i]) {
-        pr = fmax(pr, fabs(s->c[i] - s->s[i]));
-        co = fmax(co, fabs(s->s[i] * s->z[i] - mu));
+        pr = hp_fmax(pr, fabs(s->c[i] - s->s[i]));
+        co = hp_fmax(co, fabs(s->s[i] * s->z[i] - mu));
         sum_z += s->z[i];
         ++n_z;
       }
   }
   {
     const real s_max = 100.0;
-    real sd = fmax(s_max, (sum_l + sum_z) / (real)(n_l + n_z)) / s_max;
-    real sc = n_z ? fmax(s_max, sum_z / (real)n_z) / s_max : 1.0;
-    return fmax(fmax(rd / sd, pr), co / sc);
+    real sd = hp_fmax(s_max, (sum_l + sum_z) / (real)(n_l + n_z)) / s_max;
+    real sc = n_z ? hp_fmax(s_max, sum_z / (real)n_z) / s_max : 1.0;
+    return hp_fmax(hp_fmax(rd / sd, pr), co / sc);
   }
 }
 
@@ -649,6 +668,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
   m->iterations = 0;
   m->filter_size = 0;
   m->mu = warm ? HP_MU : HP_MU_COLD;
+  m->lg_ok = 0;
   m->n_free = 0;
   if (!lbg || !ubg) return 4;
   for (i = 0; i < HP_NX; ++i) { /* X_0's rows: X_0 = x0, or the component free (both bounds infinite) */
@@ -683,23 +703,25 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
       s->on[b] = isfinite(hi);
       s->bound[b] = hi;
     }
-    if (hp_eval(m, k, p, 0)) return 3;
+    /* The constraints at the start: of w alone without rows (iteration 0's hp_linearize evaluates the stage
+     * anyway and fails as this would, code 3), else of the rows too. */
+    if (HP_NR > 0 && hp_eval(m, k, p, 0)) return 3;
     hp_constraints(s, s->w, s->rows, s->c);
     for (i = 0; i < HP_NC; ++i)
-      s->s[i] = s->on[i] ? fmax(s->c[i], warm ? HP_BOUND_PUSH : HP_PUSH_COLD * fmax(1.0, fabs(s->bound[i]))) : 1.0;
+      s->s[i] = s->on[i] ? hp_fmax(s->c[i], warm ? HP_BOUND_PUSH : HP_PUSH_COLD * hp_fmax(1.0, fabs(s->bound[i]))) : 1.0;
     /* Multipliers: the caller's (bounds' at least floor), or none (z = 1, lam = 0). */
     for (i = 0; i < HP_NC; ++i) s->z[i] = s->on[i] ? 1.0 : 0.0;
     for (i = 0; i < HP_NX; ++i) s->lam[i] = warm && !(k == 0 && m->free0[i]) ? lam_g0[gap + i] : 0.0;
     if (warm) {
       for (i = 0; i < HP_NR; ++i) {
         if (!hp_has_rows(k)) break;
-        if (s->on[i]) s->z[i] = fmax(-lam_g0[ra + i], floor);
-        if (s->on[HP_NR + i]) s->z[HP_NR + i] = fmax(lam_g0[ra + i], floor);
+        if (s->on[i]) s->z[i] = hp_fmax(-lam_g0[ra + i], floor);
+        if (s->on[HP_NR + i]) s->z[HP_NR + i] = hp_fmax(lam_g0[ra + i], floor);
       }
       for (i = 0; i < nv; ++i) {
         int a = 2 * HP_NR + i, b = 2 * HP_NR + HP_NV + i;
-        if (s->on[a]) s->z[a] = fmax(-lam_x0[k * HP_NV + i], floor);
-        if (s->on[b]) s->z[b] = fmax(lam_x0[k * HP_NV + i], floor);
+        if (s->on[a]) s->z[a] = hp_fmax(-lam_x0[k * HP_NV + i], floor);
+        if (s->on[b]) s->z[b] = hp_fmax(lam_x0[k * HP_NV + i], floor);
       }
     }
   }
@@ -715,7 +737,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
     /* From a cold start: IPOPT's monotone update of mu (kappa_eps 10, kappa_mu 0.2, theta_mu 1.5), the
      * filter anew with each new mu, down to HP_MU. */
     while (m->mu > HP_MU && hp_error(m, x0, m->mu) <= 10.0 * m->mu) {
-      m->mu = fmax(HP_MU, fmin(0.2 * m->mu, pow(m->mu, 1.5)));
+      m->mu = hp_fmax(HP_MU, hp_fmin(0.2 * m->mu, pow(m->mu, 1.5)));
       m->filter_size = 0;
     }
     /* The Newton step: the barrier's blocks, the Riccati recursion, with delta I where needed. */
@@ -723,6 +745,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
     for (k = 0; k <= HP_N; ++k) {
       struct hp_stage* s = &m->st[k];
       for (i = 0; i < HP_NC; ++i) s->tgt[i] = m->mu;
+      for (i = 0; i < HP_NC; ++i) s->sig[i] = s->on[i] ? s->z[i] / s->s[i] : 0.0;
       if (k < HP_N) for (i = 0; i < HP_NX; ++i) s->b[i] = s->F[i] - m->st[k + 1].w[i];
     }
     hp_gradients(m);
@@ -730,7 +753,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
     for (;;) {
       for (k = 0; k <= HP_N; ++k) hp_barrier_hessian(&m->st[k], hp_nv(k), delta);
       if (!hp_backward(m)) break;
-      delta = delta == 0.0 ? (m->delta_last == 0.0 ? 1e-4 : fmax(1e-20, m->delta_last / 3.0)) : 8.0 * delta;
+      delta = delta == 0.0 ? (m->delta_last == 0.0 ? 1e-4 : hp_fmax(1e-20, m->delta_last / 3.0)) : 8.0 * delta;
       if (delta > 1e40) { code = 2; goto done; }
     }
     m->delta_last = delta;
@@ -745,7 +768,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
       }
       hp_gradients(m);
       hp_step_vectors(m, &a_c, &a_zc);
-      corrected = fmin(a_c, a_zc) >= fmin(a_max, a_z);
+      corrected = hp_fmin(a_c, a_zc) >= hp_fmin(a_max, a_z);
       if (corrected) {
         a_max = a_c;
         a_z = a_zc;
@@ -756,8 +779,8 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
     theta0 = hp_infeasibility(m, x0, 0);
     phi0 = hp_barrier(m, 0);
     if (it == 0) {
-      m->theta_max = 1e4 * fmax(1.0, theta0);
-      m->theta_min = 1e-4 * fmax(1.0, theta0);
+      m->theta_max = 1e4 * hp_fmax(1.0, theta0);
+      m->theta_min = 1e-4 * hp_fmax(1.0, theta0);
     }
     D0 = hp_slope(m);
     /* The line search: the corrected full step, else the step uncorrected, with one second-order correction of
@@ -820,7 +843,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
       real a_min = 1e-5;
       int merit = 0;
       real nu = 0.0, merit0 = 0.0, slope = 0.0;
-      if (D0 < 0.0) a_min = fmin(a_min, fmin(1e-8 * theta0 / -D0, pow(theta0, 1.1) / pow(-D0, 2.3)));
+      if (D0 < 0.0) a_min = hp_fmin(a_min, hp_fmin(1e-8 * theta0 / -D0, pow(theta0, 1.1) / pow(-D0, 2.3)));
       a_min *= 0.05;
       while (!accepted) {
         a *= 0.5;
@@ -829,8 +852,8 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
           merit = 1;
           for (k = 0; k <= HP_N; ++k) {
             const struct hp_stage* s = &m->st[k];
-            for (i = 0; i < HP_NX; ++i) nu = fmax(nu, fabs(s->lam_new[i]));
-            for (i = 0; i < HP_NC; ++i) if (s->on[i]) nu = fmax(nu, fabs(s->z[i] + s->dz[i]));
+            for (i = 0; i < HP_NX; ++i) nu = hp_fmax(nu, fabs(s->lam_new[i]));
+            for (i = 0; i < HP_NC; ++i) if (s->on[i]) nu = hp_fmax(nu, fabs(s->z[i] + s->dz[i]));
           }
           nu *= 1.1;
           merit0 = phi0 + nu * theta0;
@@ -859,8 +882,9 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
       for (i = 0; i < HP_NC; ++i) {
         if (!s->on[i]) continue;
         s->s[i] = s->st[i];
+        s->lg[i] = s->lgt[i];
         s->z[i] += a_z * s->dz[i];
-        s->z[i] = fmin(fmax(s->z[i], m->mu / (1e10 * s->s[i])), 1e10 * m->mu / s->s[i]);
+        s->z[i] = hp_fmin(hp_fmax(s->z[i], m->mu / (1e10 * s->s[i])), 1e10 * m->mu / s->s[i]);
       }
       for (i = 0; i < HP_NX; ++i) s->lam[i] += a * (s->lam_new[i] - s->lam[i]);
     }
