@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -39,16 +40,35 @@ def table2() -> VehicleTrailer:
     return VehicleTrailer(wheelbase=3.0, hitch_offset=1.0, trailer_length=2.5)
 
 
-@pytest.fixture
-def jit_cache(tmp_path, monkeypatch):
-    """Compilation on, into a cache of this test's own, from a working folder that must stay empty."""
+def _compiling(cache: Path, work: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[Path, Path]:
     from hitchpark.native import resolved_compiler
 
     if resolved_compiler() is None:
         pytest.skip("no C compiler on this machine")
     monkeypatch.setenv("HITCHPARK_JIT", "1")
-    monkeypatch.setenv("HITCHPARK_CACHE", str(tmp_path / "cache"))
-    work = tmp_path / "work"
+    monkeypatch.setenv("HITCHPARK_CACHE", str(cache))
     work.mkdir()
     monkeypatch.chdir(work)
-    return tmp_path / "cache", work
+    return cache, work
+
+
+@pytest.fixture
+def jit_cache(tmp_path, monkeypatch):
+    """Compilation on, into a cache of this test's own, from a working folder that must stay empty: for a test of
+    the cache itself, or of what happens where nothing compiles."""
+    return _compiling(tmp_path / "cache", tmp_path / "work", monkeypatch)
+
+
+@pytest.fixture(scope="session")
+def _run_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One cache for the run: shared by pytest-xdist's workers (their folders' parent is the run's), each library
+    compiled by the first that asks and loaded by the others (``hitchpark.native`` builds under a lock)."""
+    base = tmp_path_factory.getbasetemp()
+    return (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "run-cache"
+
+
+@pytest.fixture
+def shared_jit_cache(_run_cache, tmp_path, monkeypatch):
+    """Compilation on, into the run's one cache (a solver the suite compiles in several tests is compiled once),
+    from a working folder of this test's own that must stay empty."""
+    return _compiling(_run_cache, tmp_path / "work", monkeypatch)

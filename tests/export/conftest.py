@@ -117,12 +117,11 @@ def library(built: Built) -> Path:
 
 
 @pytest.fixture(scope="module")
-def compiled_in_process(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    """Compilation on for the in-process controller (its riccati_c) while the module runs, into one cache for the
-    session's modules (compiled once, loaded by the next)."""
+def compiled_in_process(_run_cache: Path) -> Iterator[Path]:
+    """Compilation on for the in-process controller (its riccati_c) while the module runs, into the run's one cache
+    (compiled once, loaded by the next module and by the solver tests)."""
     compiler_or_skip()
-    cache = tmp_path_factory.getbasetemp() / "compiled-in-process"
-    cache.mkdir(exist_ok=True)
+    cache = _run_cache
     saved = {k: os.environ.get(k) for k in ("HITCHPARK_JIT", "HITCHPARK_CACHE")}
     os.environ["HITCHPARK_JIT"], os.environ["HITCHPARK_CACHE"] = "1", str(cache)
     try:

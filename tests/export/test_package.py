@@ -273,7 +273,14 @@ def test_the_example_runs_clean_under_the_address_and_undefined_sanitizers(open_
     (restarts, a NaN hitch every 97th) run, with nothing reported."""
     probe = tmp_path / "probe.c"
     probe.write_text("int main(void) { return 0; }\n")
-    sanitize = ["-g", "-O0", "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"]
+    sanitize = [
+        "-g",
+        "-O0",
+        "-DHP_OPTIMIZE_AS_BUILT",
+        "-fsanitize=address,undefined",
+        "-fno-sanitize-recover=all",
+        "-fno-omit-frame-pointer",
+    ]
     if subprocess.run([c_compiler, *sanitize, str(probe), "-o", str(tmp_path / "probe")]).returncode != 0:
         pytest.skip(f"{c_compiler} builds no sanitized program on this machine")
     folder = tmp_path / "pkg"

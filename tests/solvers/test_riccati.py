@@ -56,7 +56,7 @@ def _assert_kkt_point(kkt, problem, answer, tol=1e-6):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("ocp", ["paper", "full", "obstacles"])
-def test_riccati_reaches_ipopts_optimum_from_cold_and_warm_starts(jit_cache, request, ocp):
+def test_riccati_reaches_ipopts_optimum_from_cold_and_warm_starts(shared_jit_cache, request, ocp):
     controller, problems = request.getfixturevalue(f"{'obstacle' if ocp == 'obstacles' else ocp}_problems")
     tr = controller.transcription
     solver = _riccati(controller)
@@ -82,7 +82,7 @@ def test_riccati_reaches_ipopts_optimum_from_cold_and_warm_starts(jit_cache, req
 
 @pytest.mark.slow
 @pytest.mark.parametrize("ocp", ["paper", "full", "obstacles"])
-def test_riccati_corrector_takes_fewer_iterations_to_the_same_optimum(jit_cache, request, ocp):
+def test_riccati_corrector_takes_fewer_iterations_to_the_same_optimum(shared_jit_cache, request, ocp):
     """Mehrotra's corrector (the default) against the plain Newton step, warm-started along the recorded loop."""
     controller, problems = request.getfixturevalue(f"{'obstacle' if ocp == 'obstacles' else ocp}_problems")
     tr = controller.transcription
@@ -109,7 +109,7 @@ def test_riccati_corrector_takes_fewer_iterations_to_the_same_optimum(jit_cache,
 
 
 @pytest.mark.slow
-def test_riccati_frees_a_component_of_x0_as_ipopt_does(jit_cache, obstacle_problems):
+def test_riccati_frees_a_component_of_x0_as_ipopt_does(shared_jit_cache, obstacle_problems):
     """The free-steer problem among obstacles (X_0's steer freed from the measured one, within the car's
     steer limit; its row's bounds infinite): riccati_c takes it, from a cold start as the controller gives
     it, and reaches IPOPT's optimum, a KKT point whose freed row has no multiplier."""
@@ -138,7 +138,7 @@ def test_riccati_frees_a_component_of_x0_as_ipopt_does(jit_cache, obstacle_probl
 
 
 @pytest.mark.slow
-def test_riccati_from_its_own_answer_is_done_at_once(jit_cache, obstacle_problems, monkeypatch):
+def test_riccati_from_its_own_answer_is_done_at_once(shared_jit_cache, obstacle_problems, monkeypatch):
     controller, problems = obstacle_problems
     solver = _riccati(controller, floor=1e-12)
     steps = []
@@ -158,7 +158,7 @@ def test_riccati_from_its_own_answer_is_done_at_once(jit_cache, obstacle_problem
 
 
 @pytest.mark.slow
-def test_riccati_fails_on_what_it_cannot_take(jit_cache, obstacle_problems):
+def test_riccati_fails_on_what_it_cannot_take(shared_jit_cache, obstacle_problems):
     controller, problems = obstacle_problems
     solver = _riccati(controller)
     iterations = []
@@ -227,7 +227,7 @@ def test_riccati_stands_in_fatrop_where_nothing_compiles(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("horizon", [1, 2, 7])
-def test_riccati_steps_as_ipopt_at_any_horizon(jit_cache, horizon):
+def test_riccati_steps_as_ipopt_at_any_horizon(shared_jit_cache, horizon):
     steps = {}
     for solver in ("riccati_c", "ipopt"):
         nmpc = TrailerNMPC(VehicleTrailer(), NMPCSettings(kind="paper", horizon=horizon, solver=solver))
@@ -240,7 +240,7 @@ def test_riccati_steps_as_ipopt_at_any_horizon(jit_cache, horizon):
 
 
 @pytest.mark.slow
-def test_riccati_from_a_cold_start_at_a_long_horizon(jit_cache):
+def test_riccati_from_a_cold_start_at_a_long_horizon(shared_jit_cache):
     """A closed loop's first problem, with no multipliers to start from, at N = 80 (the full OCP): the barrier
     parameter comes down from IPOPT's start rather than beginning at its last value (which stalled here)."""
     from hitchpark.app.bench import BENCH_OCPS, own_problems, record_problems

@@ -94,7 +94,7 @@ def test_a_relaxed_route_that_is_the_fallback_is_the_fallback_solver_itself():
 
 
 @pytest.mark.slow
-def test_riccati_takes_the_free_steer_problem_itself(jit_cache):
+def test_riccati_takes_the_free_steer_problem_itself(shared_jit_cache):
     """``riccati_c`` frees X_0[steer] itself (hitchpark's own solver takes a free component of X_0): no
     general route is built, and the steer is IPOPT's."""
     from hitchpark.model.plant import Measurement
@@ -160,7 +160,7 @@ def test_generated_c_is_the_same_solver_cached_and_leaves_nothing_behind(jit_cac
 
 
 @pytest.mark.slow
-def test_generated_c_reports_a_failure_and_the_controller_stops(jit_cache):
+def test_generated_c_reports_a_failure_and_the_controller_stops(shared_jit_cache):
     nmpc = TrailerNMPC(
         VehicleTrailer(),
         NMPCSettings(kind="paper", solver="fatrop_c", fallback_solver=None, solver_options={"fatrop.max_iter": 1}),
@@ -173,7 +173,7 @@ def test_generated_c_reports_a_failure_and_the_controller_stops(jit_cache):
 
 
 @pytest.mark.slow
-def test_generated_c_falls_back_to_the_fallback_solver(jit_cache):
+def test_generated_c_falls_back_to_the_fallback_solver(shared_jit_cache):
     nmpc = TrailerNMPC(
         VehicleTrailer(),
         NMPCSettings(kind="paper", solver="fatrop_c", fallback_solver="ipopt", solver_options={"fatrop.max_iter": 1}),
@@ -193,7 +193,7 @@ def _stalling_nlp():
     return nlp, [False, True]
 
 
-def test_generated_sqp_reports_a_solve_that_did_not_converge_as_casadis_sqp_does(jit_cache):
+def test_generated_sqp_reports_a_solve_that_did_not_converge_as_casadis_sqp_does(shared_jit_cache):
     """CasADi 3.8's generated sqpmethod returned success however its iterations ended; the free-steer
     problem of a full NMPC at N = 80 came back so with its steer at 114 rad, and the stage started at full
     lock (issue 10's notes). Now it says what the in-process solver says."""
@@ -207,7 +207,7 @@ def test_generated_sqp_reports_a_solve_that_did_not_converge_as_casadis_sqp_does
     assert generated.stats()["return_status"] == "not converged (code 1)"
 
 
-def test_generated_sqp_out_of_iterations_fails_and_the_fallback_answers(jit_cache):
+def test_generated_sqp_out_of_iterations_fails_and_the_fallback_answers(shared_jit_cache):
     settings = NMPCSettings(kind="paper", solver="sqp_c", fallback_solver=None, solver_options={"max_iter": 1})
     nmpc = TrailerNMPC(VehicleTrailer(), settings)
     assert isinstance(nmpc.solver, GeneratedNLP)
@@ -297,7 +297,7 @@ def test_generated_route_runs_in_process_where_nothing_compiles(tmp_path, monkey
 
 
 @pytest.mark.slow
-def test_unknown_input_to_a_generated_solver_is_refused(jit_cache, paper_problems):
+def test_unknown_input_to_a_generated_solver_is_refused(shared_jit_cache, paper_problems):
     controller, _ = paper_problems
     tr = controller.transcription
     solver = make_solver("fatrop_c", tr.nlp, list(tr.lbg == tr.ubg))
@@ -305,7 +305,7 @@ def test_unknown_input_to_a_generated_solver_is_refused(jit_cache, paper_problem
         solver(x_guess=np.zeros(3))
 
 
-def test_a_generated_function_gives_the_same_answers(jit_cache, monkeypatch):
+def test_a_generated_function_gives_the_same_answers(shared_jit_cache, monkeypatch):
     """The planner's batch rollouts compiled to C: the same numbers as CasADi's virtual machine."""
     import casadi as ca
 
@@ -327,7 +327,7 @@ def test_a_generated_function_gives_the_same_answers(jit_cache, monkeypatch):
 
 
 @pytest.mark.slow
-def test_compiled_code_is_shared_safely_by_threads_and_pickles(jit_cache, paper_problems):
+def test_compiled_code_is_shared_safely_by_threads_and_pickles(shared_jit_cache, paper_problems):
     """ctypes lets threads run during a call: each call's buffers must not be overwritten by another's."""
     import pickle
     import threading
@@ -365,7 +365,7 @@ def test_compiled_code_is_shared_safely_by_threads_and_pickles(jit_cache, paper_
     assert float(copy(**problems[0].inputs())["f"]) == float(solver(**problems[0].inputs())["f"])
 
 
-def test_a_matrix_argument_must_have_its_shape(jit_cache):
+def test_a_matrix_argument_must_have_its_shape(shared_jit_cache):
     import casadi as ca
 
     from hitchpark.native import generated_function
@@ -381,7 +381,7 @@ def test_a_matrix_argument_must_have_its_shape(jit_cache):
 @pytest.mark.slow
 @pytest.mark.parametrize(("route", "ocp"), [("fatrop_c", "full"), ("sqp_c", "paper"), ("fatrop_c", "obstacles")])
 def test_generated_routes_reach_the_reference_optimum(
-    jit_cache, route, ocp, paper_problems, full_problems, obstacle_problems
+    shared_jit_cache, route, ocp, paper_problems, full_problems, obstacle_problems
 ):
     controller, problems = _problems(ocp, paper_problems, full_problems, obstacle_problems)
     tr = controller.transcription
@@ -395,7 +395,7 @@ def test_generated_routes_reach_the_reference_optimum(
         np.testing.assert_allclose(tr.unpack(w, problem.p)[1][0], tr.unpack(w_ref, problem.p)[1][0], atol=2e-4)
 
 
-def test_a_plant_with_a_compiled_step_pickles_and_steps_the_same(jit_cache):
+def test_a_plant_with_a_compiled_step_pickles_and_steps_the_same(shared_jit_cache):
     import pickle
 
     from hitchpark.model.plant import Command, Plant, PlantSettings

@@ -62,7 +62,9 @@ def test_shifted_multipliers_move_each_stage_on_by_a_step_and_hold_the_last():
 
 
 @pytest.mark.slow
-def test_fatrop_started_from_its_own_optimum_and_multipliers_ends_there_in_fewer_iterations(jit_cache, monkeypatch):
+def test_fatrop_started_from_its_own_optimum_and_multipliers_ends_there_in_fewer_iterations(
+    shared_jit_cache, monkeypatch
+):
     monkeypatch.setenv("HITCHPARK_JIT", "0")  # the problems are recorded uncompiled (they need no multipliers) ...
     controller, problems, _ = _recorded("full", 2)
     monkeypatch.setenv("HITCHPARK_JIT", "1")  # ... and the solver under test is compiled
@@ -88,7 +90,9 @@ def test_fatrop_started_from_its_own_optimum_and_multipliers_ends_there_in_fewer
 
 
 @pytest.mark.slow
-def test_the_shifted_multipliers_reach_the_optimum_of_fatrops_own_start_and_non_finite_ones_are_ignored(jit_cache):
+def test_the_shifted_multipliers_reach_the_optimum_of_fatrops_own_start_and_non_finite_ones_are_ignored(
+    shared_jit_cache,
+):
     """On the problems a closed loop posed (each with the last plan's multipliers, shifted): the same optimum
     as from fatrop's own start (whose least-squares equality multipliers the caller's replace). Multipliers
     with a NaN are not used: that solve is fatrop's own, to the iteration and the last bit."""
@@ -112,7 +116,7 @@ def test_the_shifted_multipliers_reach_the_optimum_of_fatrops_own_start_and_non_
 
 
 @pytest.mark.slow
-def test_the_controller_passes_on_the_shifted_multipliers_and_parks_as_without(jit_cache):
+def test_the_controller_passes_on_the_shifted_multipliers_and_parks_as_without(shared_jit_cache):
     """Every problem after the first of a stage starts from the multipliers of the last plan, of the
     transcription's sizes; the maneuver ends where the one without them does."""
     controller, problems, result = _recorded("paper", 0)
