@@ -51,7 +51,10 @@ __all__ = [
 ]
 
 #: Measured on the full OCP: -O1 compiles in ~4.5 s and runs as fast as -O2 (~8 s); -O0 runs 1.5x slower.
-FLAGS = ("-O1",)
+#: No fused multiply-add: where the target has it (aarch64, or x86-64 built for a CPU with FMA) a compiler may fuse
+#: a * b + c into one rounding, so the same code would answer otherwise on another machine, and otherwise than the
+#: exported package (built so too).
+FLAGS = ("-O1", "-ffp-contract=off")
 
 #: Callers of one generated library that may live at once in a process (each checks out its own memory).
 MAX_INSTANCES = 64
@@ -238,7 +241,7 @@ def load_source(name: str, source: Path, load: Callable[[Path], Any], includes: 
     def build(compiler: str, home: Path, library: Path) -> bool:
         with tempfile.TemporaryDirectory(dir=home) as scratch:
             built = Path(scratch) / library.name
-            flags = [*FLAGS, "-ffp-contract=off", "-fPIC", "-shared"]
+            flags = [*FLAGS, "-fPIC", "-shared"]
             command = [compiler, *flags, str(source), "-lm", "-o", str(built)]
             done = subprocess.run(command, capture_output=True, text=True, check=False)
             if done.returncode != 0 or not built.is_file():
@@ -246,7 +249,7 @@ def load_source(name: str, source: Path, load: Callable[[Path], Any], includes: 
             os.replace(built, library)
         return True
 
-    return load_cached(name, _key(text, ["source", name, "-ffp-contract=off"]), build, load)
+    return load_cached(name, _key(text, ["source", name, *FLAGS]), build, load)
 
 
 def source_function(

@@ -19,6 +19,7 @@ from flags import WARNINGS
 from hitchpark.app.export import PACKAGE_FILES, copy_package
 from hitchpark.app.exported import ExportedNMPC, _Command, _Measurement, _Pose, _Status
 from hitchpark.app.sil import sil_settings
+from hitchpark.control import make_nmpc
 from hitchpark.maneuver.process import park
 from hitchpark.maneuver.scenario import builtin_scenario
 from hitchpark.model.plant import Command, Measurement
@@ -185,8 +186,18 @@ def test_the_python_face_of_the_library_refuses_what_it_cannot_do(library):
     assert lib.hitchpark_nmpc_follow(nmpc._handle, None, 2, 0.5, 1.0) == 1
     assert lib.hitchpark_nmpc_follow(nmpc._handle, points, 1, 0.5, 1.0) == 0
     assert lib.hitchpark_nmpc_follow(nmpc._handle, None, 0, 0.0, 0.0) == 0  # park at the goal again
-    step = nmpc.act(Measurement(0.0, State(8.0, 1.0, 0.2, 1.5), 0.0, 0.0), Pose(), (Command(0.0, 0.0),))
-    assert not step.ok and step.stop and step.status == "hitch angle beyond max_hitch"
+    # A refused measurement: the stop, the status, no plan and no cost, as the in-process controller answers it.
+    in_process = make_nmpc(nmpc.vehicle, settings)
+    for measurement in (
+        Measurement(0.0, State(8.0, 1.0, 0.2, 1.5), 0.0, 0.0),
+        Measurement(0.0, State(8.0, 1.0, 0.2, 0.1), math.nan, 0.0),  # the steer sensor gives NaN
+    ):
+        step, expected = (c.act(measurement, Pose(), (Command(0.0, 0.0),)) for c in (nmpc, in_process))
+        assert not step.ok and step.stop and step.status == expected.status
+        assert (step.rear_speed, step.front_steer, step.solve_ms) == (expected.rear_speed, expected.front_steer, 0.0)
+        assert math.isnan(step.cost) and math.isnan(expected.cost)
+        assert np.isnan(step.predicted_states).all() and np.isnan(step.predicted_inputs).all()
+        assert step.predicted_states.shape == expected.predicted_states.shape
 
 
 @pytest.mark.slow

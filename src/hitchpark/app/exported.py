@@ -8,6 +8,7 @@ path, keeping clear of a scene, every call going to the C.
 from __future__ import annotations
 
 import ctypes
+import math
 import subprocess
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -64,6 +65,7 @@ class _Status(ctypes.Structure):
 
 #: The error codes of the C API whose message is the in-process controller's status word for word.
 _E_SOLVER = 5
+_REFUSED = (3, 4)  # the measurement not finite, the hitch past its limit: refused before any solve
 
 
 #: Compiler flags of the SIL build: the package's Makefile's, with a shared library.
@@ -267,6 +269,8 @@ class ExportedNMPC(FullNMPC):
                 predicted_inputs=inputs,
             )
         why = f"not converged (code {status.solver_code})" if code == _E_SOLVER else status.message.decode()
+        if code in _REFUSED:  # no solve: no plan, no cost, no time (as FullNMPC's refusal)
+            states, inputs, cost, ms = np.full_like(states, np.nan), np.full_like(inputs, np.nan), math.nan, 0.0
         return ControlStep(
             trailer_speed=0.0,
             virtual_steer=0.0,
