@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import ctypes
+import subprocess
 from pathlib import Path
 
 import pytest
 
+from hitchpark.app.exported import build_package, cached_package_library
 from hitchpark.app.sil import run_sil, sil_settings
+from hitchpark.checks import InputError
 from hitchpark.maneuver.scenario import BUILTIN_ORDER, builtin_scenario
 from hitchpark.model.plant import load_plant
 
@@ -73,3 +77,23 @@ def test_sil_equals_in_process_among_obstacles(name, plant, library, compiled_in
     assert report["paths_followed"] >= 1 and report["exported"]["outcome"] == "parked"
     assert report["same_outcome"] and report["rows"]["exported"] == report["rows"]["in_process"]
     assert report["max_command_difference"] == 0.0 and report["max_state_difference"] == 0.0
+
+
+def test_the_package_is_compiled_once_into_the_cache_for_its_sources(jit_cache, monkeypatch):
+    """sil builds a package once: the next run with the same sources (another example start) loads it; other
+    sources are another build; sources that do not compile are none (and build_package says why)."""
+    files = {"src/probe.c": "double probe(void) { return 1.5; }\n", "include/probe.h": "", "examples/main.c": "1"}
+    first = cached_package_library(files)
+    assert first is not None and first.is_relative_to(jit_cache[0])
+    probe = ctypes.CDLL(str(first)).probe
+    probe.restype = ctypes.c_double
+    assert probe() == 1.5
+    with monkeypatch.context() as patch:
+        patch.setattr(subprocess, "run", lambda *a, **k: pytest.fail("compiled again despite the cache"))
+        assert cached_package_library({**files, "examples/main.c": "2"}) == first
+    other = cached_package_library({**files, "src/probe.c": "double probe(void) { return 2.5; }\n"})
+    assert other is not None and other != first and first.is_file()
+    broken = {**files, "src/probe.c": "double probe(void) { return }\n"}
+    assert cached_package_library(broken) is None
+    with pytest.raises(InputError, match=r"did not compile: .*error"):
+        build_package(broken, jit_cache[1] / "package")

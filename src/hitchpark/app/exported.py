@@ -1,15 +1,20 @@
 """The exported controller where the maneuver takes a :class:`~hitchpark.control.nmpc.FullNMPC` (``hitchpark sil``).
 
 :func:`build_package` compiles a package (:mod:`.export`) in a scratch folder with the system's C compiler into a
-shared library; :class:`ExportedNMPC` drives that library through :mod:`ctypes`: parking, tracking the planner's
-path, keeping clear of a scene, every call going to the C.
+shared library (:func:`cached_package_library`: once, into hitchpark's compile cache); :class:`ExportedNMPC` drives
+that library through :mod:`ctypes`: parking, tracking the planner's path, keeping clear of a scene, every call going
+to the C.
 """
 
 from __future__ import annotations
 
 import ctypes
+import hashlib
+import json
 import math
+import os
 import subprocess
+import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,13 +31,13 @@ from ..model.plant import Command, Measurement
 from ..model.scene import Scene
 from ..model.state import Pose, check_goal
 from ..model.vehicle import VehicleTrailer
-from ..native import resolved_compiler
+from ..native import cached_library, resolved_compiler
 from ..ocp.obstacles import convex_pieces
 from ..ocp.reference import PathReference
 from ..ocp.settings import NMPCSettings
 from .export import MAX_PIECES, MAX_VERTICES, copy_package, library_sources
 
-__all__ = ["BUILD_FLAGS", "ExportedNMPC", "build_package"]
+__all__ = ["BUILD_FLAGS", "ExportedNMPC", "build_package", "cached_package_library"]
 
 _REAL = ctypes.c_double
 
@@ -89,6 +94,27 @@ def build_package(files: dict[str, str], folder: Path, compiler: str | None = No
         first = next((line for line in done.stderr.splitlines() if "error" in line), done.stderr.strip()[:200])
         raise InputError(f"the exported package did not compile: {first}")
     return library
+
+
+def cached_package_library(files: dict[str, str]) -> Path | None:
+    """The library of the package ``files`` from hitchpark's compile cache (:mod:`hitchpark.native`): built once by
+    :func:`build_package` for these sources (those of ``src/`` and ``include/``: not the example's start), this
+    compiler and :data:`BUILD_FLAGS`, then loaded from there by every run and process. None where nothing is cached
+    (compilation switched off, no compiler) or the package does not compile (:func:`build_package` says why)."""
+    compiled = {name: text for name, text in sorted(files.items()) if name.startswith(("src/", "include/"))}
+    described = json.dumps([compiled, BUILD_FLAGS, resolved_compiler()], sort_keys=True)
+    key = hashlib.sha256(described.encode()).hexdigest()[:24]
+
+    def build(compiler: str, home: Path, library: Path) -> bool:
+        with tempfile.TemporaryDirectory(dir=home) as scratch:
+            try:
+                built = build_package(files, Path(scratch) / "package", compiler)
+            except InputError:
+                return False
+            os.replace(built, library)
+        return True
+
+    return cached_library("hitchpark_nmpc", key, build)
 
 
 @dataclass

@@ -28,7 +28,7 @@ from ..model.plant import PlantSettings
 from ..ocp.settings import NMPCSettings
 from ..solvers.registry import takes_free_initial
 from .export import ExportSpec, package_files
-from .exported import ExportedNMPC, build_package
+from .exported import ExportedNMPC, build_package, cached_package_library
 
 __all__ = ["ExportedNMPC", "SilReport", "build_package", "run_sil", "sil_settings"]
 
@@ -164,7 +164,8 @@ def run_sil(
     """Park ``scenario`` with the exported controller and with the in-process one, and compare.
 
     ``plant``: the car driven (default: the scenario's). ``nmpc``: the NMPC settings (default: :func:`sil_settings`'s).
-    ``controller``: a ready in-process controller of those settings to reuse. ``scratch``: where to build (default: a
+    ``controller``: a ready in-process controller of those settings to reuse. The package is built once into
+    hitchpark's compile cache (:func:`cached_package_library`), where one is; else in ``scratch`` (default: a
     temporary folder, removed after). ``library``: a build of this vehicle's and these settings' package to use
     (:func:`build_package`; among obstacles, one exported with them) instead of building one. A scene of obstacles
     is driven with the obstacle OCP (the package built ``--obstacles``). ``ipopt``: park a third time with IPOPT
@@ -185,7 +186,7 @@ def run_sil(
     if not takes_free_initial(in_process.solver):
         raise InputError("the in-process controller does not run the compiled riccati_c here (HITCHPARK_JIT=0?)")
     with tempfile.TemporaryDirectory(dir=scratch) as folder:
-        built = library or build_package(files, Path(folder) / "package")
+        built = library or cached_package_library(files) or build_package(files, Path(folder) / "package")
         exported = ExportedNMPC(built, scenario.vehicle, settings.nmpc)
         library_bytes = built.stat().st_size
         c_result = park(scenario.vehicle, scenario.start, scenario.goal, settings, scenario.name, exported, plant,

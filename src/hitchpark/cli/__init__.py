@@ -294,7 +294,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "sil",
         help="software in the loop: the exported C controller against the in-process one",
-        description="Export the full-model NMPC, build it in a temporary folder with the system's C compiler, load it, "
+        description="Export the full-model NMPC, build it with the system's C compiler (once: into hitchpark's compile "
+        "cache, where the next run with the same vehicle and settings loads it), load it, "
         "and park the scenario with it on hitchpark's plant; park it again with the in-process controller; report "
         "both side by side (outcomes, the largest difference in commands and states, the C step's time measured "
         "inside C, the workspace and library size, the in-process routes' step times: the same solver from Python, "
