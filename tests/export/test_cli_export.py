@@ -53,3 +53,29 @@ def test_sil_refuses_bad_input_in_one_line(tmp_path, capsys):
     assert main(["sil", "--scenario", "nosuch", "--json", str(tmp_path / "s.json")]) == EXIT_BAD_INPUT
     assert "nosuch" in capsys.readouterr().err
     assert not (tmp_path / "s.json").exists()
+    (tmp_path / "paper.toml").write_text('[nmpc]\nkind = "paper"\n')
+    for settings, message in (
+        (tmp_path / "none.toml", "cannot read settings file"),
+        (tmp_path / "paper.toml", "nmpc.kind 'full'"),
+    ):
+        argv = ["sil", "--scenario", "random", "--settings", str(settings), "--json", str(tmp_path / "s.json")]
+        assert main(argv) == EXIT_BAD_INPUT
+        err = capsys.readouterr().err
+        assert message in err and len(err.strip().splitlines()) == 1
+        assert not (tmp_path / "s.json").exists()
+
+
+def test_the_real_time_iteration_setting_goes_into_the_package_and_nowhere_by_default(tmp_path):
+    """``[nmpc.solver_options] warm_iterations`` (benchmarks/settings/realtime_iteration.toml) defines HP_WARM_ITER in
+    each OCP's file of the package; the default package has none (its solver is the in-process default's)."""
+    from pathlib import Path
+
+    settings = Path(__file__).parents[2] / "benchmarks" / "settings" / "realtime_iteration.toml"
+    for args, defined in (([], False), (["--settings", str(settings)], True)):
+        out = tmp_path / ("rti" if defined else "default")
+        assert main(["export", "--out", str(out), *args]) == 0
+        for ocp in ("park", "track"):
+            text = (out / "src" / f"hitchpark_nmpc_ocp_{ocp}.c").read_text()
+            assert ("#define HP_WARM_ITER 1\n" in text) == defined
+        manifest = json.loads((out / "manifest.json").read_text())
+        assert manifest["settings"]["nmpc"]["solver_options"] == ({"warm_iterations": 1} if defined else {})

@@ -17,6 +17,7 @@ from hitchpark.control import NMPCSettings, TrailerNMPC, make_nmpc
 from hitchpark.ocp.full import STEER
 from hitchpark.solvers.generated import GeneratedNLP
 from hitchpark.solvers.registry import make_solver, takes_free_initial
+from hitchpark.solvers.riccati import checked_options
 
 
 def _riccati(controller, floor=None):
@@ -203,7 +204,15 @@ def test_riccati_fails_on_what_it_cannot_take(shared_jit_cache, obstacle_problem
 @pytest.mark.parametrize(
     ("options", "message"),
     [
-        ({"max_itr": 5}, "unknown option 'max_itr'; the options are tol, mu, max_iter, bound_push, corrector"),
+        (
+            {"max_itr": 5},
+            "unknown option 'max_itr'; the options are tol, mu, max_iter, bound_push, corrector, warm_iterations",
+        ),
+        ({"warm_iterations": 0}, "option 'warm_iterations' must be None or a whole number in [1, max_iter], got 0"),
+        (
+            {"warm_iterations": True},
+            "option 'warm_iterations' must be None or a whole number in [1, max_iter], got True",
+        ),
         ({"corrector": 1}, "option 'corrector' must be True or False, got 1"),
         ({"mu": 1e-8}, "option 'mu' must be below 'tol' (1e-08), got 1e-08"),
         ({"tol": "small"}, "option 'tol' must be a number in (0, 1), got 'small'"),
@@ -214,6 +223,47 @@ def test_riccati_refuses_options_it_does_not_take(options, message):
     with pytest.raises(InputError) as caught:
         make_nmpc(VehicleTrailer(), NMPCSettings(kind="paper", solver="riccati_c", solver_options=options))
     assert str(caught.value) == f"nmpc.solver_options are not accepted by riccati_c: {message}"
+
+
+@pytest.mark.slow
+def test_riccati_warm_iterations_caps_a_warm_solve_only(shared_jit_cache, full_problems):
+    """``warm_iterations`` (opt-in): a warm-started solve stops after that many Newton steps and answers its iterate
+    as a success, its cost and constraints the NLP's own at that iterate, within its bounds; a cold solve is the
+    default's, to the bit. Off by default: no HP_WARM_ITER in the solver's C."""
+    from hitchpark.solvers.riccati import _config, riccati_functions
+
+    controller, problems = full_problems
+    tr = controller.transcription
+    assert "HP_WARM_ITER" not in _config(tr, riccati_functions(tr, "x_"), checked_options(None))
+    equality = list(tr.lbg == tr.ubg)
+    full = _riccati(controller)
+    kkt = _kkt(tr)
+    for cap in (1, 2):
+        capped = make_solver("riccati_c", tr.nlp, equality, {"warm_iterations": cap}, transcription=tr,
+                             dual_floor=controller.settings.dual_floor)  # fmt: skip
+        previous, reached = None, 0
+        for problem in problems:
+            if previous is None:  # cold: the default's solve, to the bit
+                cold = capped(**problem.inputs())
+                np.testing.assert_array_equal(cold["x"], full(**problem.inputs())["x"])
+                assert capped.stats()["iter_count"] == full.stats()["iter_count"] > cap
+                previous = cold
+                continue
+            # Warm, from the multipliers of the problem before (the suite records none: fatrop in-process).
+            start = {"lam_x0": previous["lam_x"], "lam_g0": previous["lam_g"]}
+            answer = capped(**problem.inputs(), **start)
+            stats = capped.stats()
+            assert stats["success"] and stats["iter_count"] <= cap
+            reached += stats["iter_count"] == cap
+            x = np.asarray(answer["x"]).ravel()
+            f, g = kkt(x, problem.p)[:2]
+            assert answer["f"] == pytest.approx(float(f), rel=1e-12, abs=1e-12)
+            np.testing.assert_allclose(answer["g"], np.asarray(g).ravel(), atol=1e-12, rtol=1e-12)
+            assert np.all(x >= problem.lbx) and np.all(x <= problem.ubx)
+            previous = full(**problem.inputs(), **start)
+            if full.stats()["iter_count"] < cap:  # converged before the cap: the same answer
+                np.testing.assert_array_equal(x, np.asarray(previous["x"]).ravel())
+        assert reached > 0
 
 
 def test_riccati_stands_in_fatrop_where_nothing_compiles(tmp_path, monkeypatch):

@@ -25,7 +25,7 @@ def block_bound(config: dict[str, int]) -> int:
     )  # fmt: skip
     stage = 8 * reals + _r8(nc) + 8
     work = (N + 1) * stage + 8 * (config["HP_SZ_ARG"] + config["HP_SZ_RES"] + config["HP_SZ_IW"] + config["HP_SZ_W"])
-    work += 8 * nx + _r8(nx) + 8 + 8 * nx * nx + 16 + 16 * (config["HP_MAX_ITER"] + 1) + 8 + 16 + 8 + 8 + 8
+    work += 8 * nx + _r8(nx) + 8 + 8 * nx * nx + 16 + 16 * (config["HP_MAX_ITER"] + 1) + 8 + 16 + 8 + 8 + 8 + 8
     n_par = nx + N * config["HP_NP"] + config["HP_H0"]
     return _r8(work + 8 * (7 * nw + 6 * ng + n_par + 2) + 16 + 8)
 

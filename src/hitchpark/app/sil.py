@@ -195,7 +195,8 @@ def run_sil(
                      scenario.scene)  # fmt: skip
     ipopt_ms = None
     if ipopt:
-        reference = replace(settings, nmpc=replace(settings.nmpc, solver="ipopt"))
+        # IPOPT with its own options: the package's solver options (riccati_c's) are not IPOPT's.
+        reference = replace(settings, nmpc=replace(settings.nmpc, solver="ipopt", solver_options={}))
         ipopt_result = park(scenario.vehicle, scenario.start, scenario.goal, reference, scenario.name, plant=plant,
                             scene=scenario.scene)  # fmt: skip
         ipopt_ms = _percentiles(list(_solve_ms(ipopt_result)))

@@ -309,6 +309,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="the paper's staged process, or the planned one, the NMPC tracking the planner's path (default: the "
         "scenario's; the paper's scenarios are staged)",
     )
+    p.add_argument(
+        "--settings",
+        type=Path,
+        metavar="FILE.toml",
+        help="maneuver settings whose [nmpc] table (kind full) both controllers run, as export takes it (default: the "
+        "scenario's when of kind full, else the defaults)",
+    )
     _add_plant_option(p, "(default: the scenario's [plant])")
     p.add_argument("--json", required=True, metavar="FILE", help="where to write the report")
     p.set_defaults(func=_cmd_sil)

@@ -55,7 +55,12 @@ def _cmd_sil(args: argparse.Namespace) -> int:
     plant = _plant(args)
     if plant is not None:
         sc = replace(sc, plant=plant)
-    report = run_sil(sc, process=args.process)
+    nmpc = None
+    if args.settings is not None:
+        from ..app.sweep import load_settings
+
+        nmpc = load_settings(args.settings).nmpc
+    report = run_sil(sc, nmpc=nmpc, process=args.process)
     data = report.to_dict()
     write_json(args.json, data)
     c, py = data["exported"], data["in_process"]

@@ -33,8 +33,10 @@ RICCATI_SOURCE = Path(__file__).with_name("riccati_ipm.c")
 #: The solver's options and their defaults: tolerance of the scaled optimality error, the barrier parameter
 #: (fixed), the iteration limit, the least slack of a constraint at the start (the warm start's own
 #: otherwise: where it is active, the slack starts this close to its bound), and whether each Newton step
-#: takes Mehrotra's corrector (the step's second-order term in the complementarity).
-DEFAULTS = {"tol": 1e-8, "mu": 1e-9, "max_iter": 300, "bound_push": 1e-9, "corrector": True}
+#: takes Mehrotra's corrector (the step's second-order term in the complementarity). ``warm_iterations`` (opt-in,
+#: None: off): the Newton steps a warm-started solve takes at most, its iterate then the answer (a success), as a
+#: real-time iteration (``HP_WARM_ITER``); a cold start keeps ``max_iter``.
+DEFAULTS = {"tol": 1e-8, "mu": 1e-9, "max_iter": 300, "bound_push": 1e-9, "corrector": True, "warm_iterations": None}
 
 
 def riccati_functions(transcription: Any, prefix: str) -> dict[str, ca.Function] | None:
@@ -142,6 +144,7 @@ def _config(transcription: Any, functions: Mapping[str, ca.Function], options: M
         "HP_MAX_ITER": int(options["max_iter"]),
         "HP_BOUND_PUSH": repr(float(options["bound_push"])),
         "HP_CORRECTOR": int(options["corrector"]),
+        **({} if options.get("warm_iterations") is None else {"HP_WARM_ITER": int(options["warm_iterations"])}),
         **work,
         **{macro: f.name() for macro, f in functions.items()},
     }
@@ -166,6 +169,9 @@ def checked_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
     iterations = settings["max_iter"]
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise RuntimeError(f"option 'max_iter' must be a whole number of at least 1, got {iterations!r}")
+    cap = settings["warm_iterations"]
+    if cap is not None and (isinstance(cap, bool) or not isinstance(cap, int) or not 1 <= cap <= iterations):
+        raise RuntimeError(f"option 'warm_iterations' must be None or a whole number in [1, max_iter], got {cap!r}")
     return settings
 
 

@@ -73,9 +73,9 @@ typedef struct {
 typedef struct {
   int ok;                  /* 1: the command is the plan's; 0: a stop (error says why) */
   int stop;                /* 1: the reverse stage is over (the plan and the car at rest), or a stop */
-  int converged;           /* 1: the last solve converged */
+  int converged;           /* 1: the last solve met its tolerance (0 where it answered at warm_iterations) */
   int iterations;          /* interior-point iterations of the last solve */
-  int solver_code;         /* the solver's own code: 0 converged, 1 iteration limit, 2 line search, 3 not finite */
+  int solver_code;         /* the solver's own: 0 answered, 1 iteration limit, 2 line search, 3 not finite */
   int error;               /* HITCHPARK_NMPC_OK or one of HITCHPARK_NMPC_E_* */
   const char* message;     /* the error in words (a constant string) */
   long long solve_time_ns; /* the call's time, measured inside it (0 where the target has no clock) */
