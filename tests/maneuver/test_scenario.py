@@ -192,3 +192,11 @@ def test_folder_instead_of_file(tmp_path):
 def test_bad_weight_entries_name_the_weight(tmp_path, value):
     with pytest.raises(ValueError, match=r"nmpc\.Q"):
         load_scenario(write(tmp_path, START + f"[nmpc]\nQ = {value}\n"))
+
+
+def test_a_settings_file_turns_the_fallback_and_relaxed_solvers_off_with_none(tmp_path):
+    """TOML has no null: ``"none"`` is None (no second solver), as the error for a wrong name says it may be."""
+    text = START + '[nmpc]\nfallback_solver = "none"\nrelaxed_solver = "none"\n'
+    nmpc = load_scenario(write(tmp_path, text, name="off.toml")).settings.nmpc
+    assert nmpc.fallback_solver is None and nmpc.relaxed_solver is None
+    assert nmpc == NMPCSettings(fallback_solver=None, relaxed_solver=None)

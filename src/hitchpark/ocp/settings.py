@@ -136,7 +136,8 @@ class NMPCSettings:
         which has no stages).
     fallback_solver : str or None
         Solver tried when the first one fails; only if both fail, and a retry from a cold start fails
-        too, does the step command a stop.
+        too, does the step command a stop. None (``"none"`` in a settings file): no second solver, the retry
+        from a cold start at once (as the exported package does).
     relaxed_solver : str or None
         The route of the problems a structured ``solver`` cannot take: a stage's free-steer problem
         (standing still, the wheels' angle freed, :meth:`.FullNMPC.initial_steer`). A general route (not
@@ -233,6 +234,9 @@ class NMPCSettings:
                 f"nmpc.solver {self.solver!r} needs nmpc.transcription 'multiple_shooting' (it exploits the "
                 f"stage structure), got 'single_shooting'"
             )
+        for name in ("fallback_solver", "relaxed_solver"):  # a settings file (TOML has no null) writes none
+            if getattr(self, name) == "none":
+                put(name, None)
         if self.fallback_solver is not None and self.fallback_solver not in names:
             raise InputError(
                 f"nmpc.fallback_solver must be one of {', '.join(names)} or none, got {self.fallback_solver!r}"
