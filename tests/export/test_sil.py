@@ -97,3 +97,49 @@ def test_the_package_is_compiled_once_into_the_cache_for_its_sources(jit_cache, 
     assert cached_package_library(broken) is None
     with pytest.raises(InputError, match=r"did not compile: .*error"):
         build_package(broken, jit_cache[1] / "package")
+
+
+@pytest.mark.slow
+def test_a_sweep_driven_by_the_exported_controller_has_the_in_process_records(library, compiled_in_process, tmp_path,
+                                                                              monkeypatch):  # fmt: skip
+    """``sweep --exported``: each case parked by the package's C (the suite's build of it; among obstacles the sil
+    tests drive it) has the record of the same case parked in-process without a fallback solver, field for field but
+    the wall clocks."""
+    import dataclasses
+    import json
+
+    from hitchpark.app import exported as exported_module
+    from hitchpark.app.sweep import SweepConfig, controller_for, run_sweep
+
+    monkeypatch.setattr(exported_module, "cached_package_library", lambda files: library)
+    config = SweepConfig(n=2, seed=3)
+    settings, lib = exported_module.exported_controller_library(
+        config.vehicle, config.settings, config.goal, config.plant, config.scene
+    )
+    assert lib == library and settings.nmpc.fallback_solver is None and settings.nmpc.kind == "full"
+    exported = dataclasses.replace(config, settings=settings, exported=lib)
+    assert isinstance(controller_for(exported), exported_module.ExportedNMPC)  # the C drives, run_case's controller
+    c = run_sweep(exported, tmp_path / "c.jsonl")
+    py = run_sweep(dataclasses.replace(config, settings=settings), tmp_path / "py.jsonl")
+    assert c.summary["controller"] == "exported" and "controller" not in py.summary
+    lines = [[json.loads(line) for line in (tmp_path / f"{n}.jsonl").read_text().splitlines()] for n in ("c", "py")]
+    clock = ("wall_s", "planning_s")
+    assert [{k: v for k, v in r.items() if k not in clock} for r in lines[0]] == [
+        {k: v for k, v in r.items() if k not in clock} for r in lines[1]
+    ]
+    assert all(r["success"] for r in lines[0]) and len(lines[0]) == 2
+
+
+def test_sweep_exported_refuses_what_it_cannot_drive(tmp_path, capsys):
+    from hitchpark.cli import EXIT_BAD_INPUT, main
+
+    (tmp_path / "paper.toml").write_text('[nmpc]\nkind = "paper"\n')
+    out = tmp_path / "s.jsonl"
+    for extra, message in (
+        (["--settings", str(tmp_path / "paper.toml")], "nmpc.kind 'full'"),
+        (["--assist", "hold"], "--exported drives parking sweeps"),
+    ):
+        assert main(["sweep", "--n", "2", "--seed", "1", "--exported", "--out", str(out), *extra]) == EXIT_BAD_INPUT
+        err = capsys.readouterr().err
+        assert message in err and len(err.strip().splitlines()) == 1
+        assert not out.exists()

@@ -16,7 +16,7 @@ import os
 import subprocess
 import tempfile
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -25,9 +25,10 @@ import numpy as np
 from ..checks import InputError, check_instance, check_range
 from ..control.nmpc import FullNMPC
 from ..control.step import ControlStep
+from ..maneuver.result import ManeuverSettings
 from ..model.inverse import virtual_steer_from_front
 from ..model.kinematics import trailer_speed_from_rear_speed
-from ..model.plant import Command, Measurement
+from ..model.plant import Command, Measurement, PlantSettings
 from ..model.scene import Scene
 from ..model.state import Pose, check_goal
 from ..model.vehicle import VehicleTrailer
@@ -35,9 +36,9 @@ from ..native import cached_library, resolved_compiler
 from ..ocp.obstacles import convex_pieces
 from ..ocp.reference import PathReference
 from ..ocp.settings import NMPCSettings
-from .export import MAX_PIECES, MAX_VERTICES, copy_package, library_sources
+from .export import MAX_PIECES, MAX_VERTICES, ExportSpec, copy_package, library_sources, package_files
 
-__all__ = ["BUILD_FLAGS", "ExportedNMPC", "build_package", "cached_package_library"]
+__all__ = ["BUILD_FLAGS", "ExportedNMPC", "build_package", "cached_package_library", "exported_controller_library"]
 
 _REAL = ctypes.c_double
 
@@ -115,6 +116,29 @@ def cached_package_library(files: dict[str, str]) -> Path | None:
         return True
 
     return cached_library("hitchpark_nmpc", key, build)
+
+
+def exported_controller_library(
+    vehicle: VehicleTrailer, settings: ManeuverSettings, goal: Pose, plant: PlantSettings | None, scene: Scene
+) -> tuple[ManeuverSettings, Path]:
+    """The settings and the library with which the exported controller drives maneuvers of ``settings``
+    (``hitchpark sweep --exported``): the full-model NMPC as ``hitchpark sil`` runs it, without a fallback solver
+    (:func:`~.sil.sil_settings`, the process kept), its package built once into the compile cache, with the
+    obstacle OCP where there is a scene. Raises :class:`InputError` where it cannot be: settings of another NMPC
+    than the full model's, or nothing compiles here (no C compiler, compilation switched off)."""
+    nmpc = replace(settings.nmpc, fallback_solver=None)
+    if nmpc.kind != "full":
+        raise InputError(f"--exported drives the full-model NMPC (nmpc.kind 'full'), got nmpc.kind {nmpc.kind!r}")
+    obstacles = not scene.is_empty and nmpc.obstacle_planes > 0
+    plant = plant or PlantSettings()
+    spec = ExportSpec(vehicle, nmpc, goal=goal, plant=plant, scenario="sweep", obstacles=obstacles)
+    library = cached_package_library(package_files(spec))
+    if library is None:
+        raise InputError(
+            "--exported builds the exported package into hitchpark's compile cache: no C compiler here ($CC, else "
+            "gcc), compilation switched off (HITCHPARK_JIT=0), or the package did not compile"
+        )
+    return replace(settings, nmpc=nmpc), library
 
 
 @dataclass

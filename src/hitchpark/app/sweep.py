@@ -66,7 +66,9 @@ class SweepConfig:
     ``plant`` is passed through to :func:`~hitchpark.maneuver.park` as ``plant=`` when it is not None;
     ``goal`` and ``scene`` as they are (default: the origin heading 0, open space). Over a scene, starts
     that do not keep ``settings.start_clearance_m`` clear of it are drawn again (:meth:`draw`).
-    ``scenario`` names the scenario the sweep came from ("" if none), for its summary.
+    ``scenario`` names the scenario the sweep came from ("" if none), for its summary. ``exported``: the library of
+    the exported controller (:func:`~.exported.exported_controller_library`) that drives every case instead of
+    the in-process one.
     """
 
     vehicle: VehicleTrailer = field(default_factory=VehicleTrailer)
@@ -78,6 +80,7 @@ class SweepConfig:
     goal: Pose = GOAL
     scene: Scene = field(default_factory=Scene)
     scenario: str = ""
+    exported: Path | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "seed", check_int("seed", self.seed, 0))
@@ -185,14 +188,21 @@ _local = threading.local()
 
 
 def controller_for(config: SweepConfig) -> TrailerNMPC | FullNMPC:
-    """This worker's controller for ``config``, built once (it compiles the NLP) and then reused.
+    """This worker's controller for ``config``, built once (it compiles the NLP, or loads the exported library) and
+    then reused.
 
     One per process and thread, so workers that run several threads never share one.
     """
-    key = (config.vehicle, config.settings.nmpc)
+    key = (config.vehicle, config.settings.nmpc, config.exported)
     cached: tuple[Any, TrailerNMPC | FullNMPC] | None = getattr(_local, "controller", None)
     if cached is None or cached[0] != key:
-        cached = (key, make_nmpc(config.vehicle, config.settings.nmpc))
+        if config.exported is not None:
+            from .exported import ExportedNMPC
+
+            controller: TrailerNMPC | FullNMPC = ExportedNMPC(config.exported, config.vehicle, config.settings.nmpc)
+        else:
+            controller = make_nmpc(config.vehicle, config.settings.nmpc)
+        cached = (key, controller)
         _local.controller = cached
     return cached[1]
 
@@ -329,6 +339,8 @@ def run_sweep(
     }
     if config.scenario:
         summary.update(scenario=config.scenario, goal=config.goal.to_dict())
+    if config.exported is not None:
+        summary["controller"] = "exported"
     if prepare_s is not None:
         summary["prepare_s"] = prepare_s
     return SweepOutcome(

@@ -260,6 +260,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="keep each case's maneuver.json and its viewer (maneuver.html) in DIR/case_NNNN/ (the cases run now); "
         "the --html page links each start to its viewer",
     )
+    p.add_argument(
+        "--exported",
+        action="store_true",
+        help="drive every case with the exported C controller (export's package, built once into the compile cache, "
+        "as sil runs it: the full-model NMPC without a fallback solver); the same sweep in-process with "
+        'nmpc.fallback_solver = "none" gives the same records',
+    )
     p.set_defaults(func=_cmd_sweep)
     p = sub.add_parser(
         "export",

@@ -262,6 +262,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                 raise UsageError(f"{flag} draws a parking sweep; an assist sweep (--assist) writes --out and --json")
         if args.keep_maneuvers is not None:
             raise UsageError("--keep-maneuvers keeps parking maneuvers; an assist sweep (--assist) writes --out")
+        if args.exported:
+            raise UsageError("--exported drives parking sweeps with the exported NMPC; an assist sweep has none")
     keep = None if args.keep_maneuvers is None else check_output_folder(args.keep_maneuvers, "--keep-maneuvers")
     scenario = scenario_from_arg(args.scenario) if args.scenario is not None else None
     config = build_config(
@@ -273,6 +275,15 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         plant_file=args.plant,
         scenario=scenario,
     )
+    if args.exported:
+        from dataclasses import replace
+
+        from ..app.exported import exported_controller_library
+
+        settings, library = exported_controller_library(
+            config.vehicle, config.settings, config.goal, config.plant, config.scene
+        )
+        config = replace(config, settings=settings, exported=library)
     executor = sweep_executor(args.workers, args.dask)
     if args.assist is not None:
         return _assist_sweep(args, config, files, executor)
