@@ -22,7 +22,8 @@ import tempfile
 from dataclasses import replace
 from pathlib import Path
 
-from hitchpark.app.export import ExportSpec, copy_package, package_files
+from hitchpark.app.export import ExportSpec, package_files
+from hitchpark.app.export_folder import copy_package
 from hitchpark.maneuver.scenario import builtin_scenario
 from hitchpark.ocp.settings import NMPCSettings
 

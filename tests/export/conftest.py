@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 from flags import WARNINGS
 
-from hitchpark.app.export import ExportSpec, copy_package, library_sources, package_files
+from hitchpark.app.export import ExportSpec, library_sources, package_files
+from hitchpark.app.export_folder import copy_package
 from hitchpark.maneuver.scenario import builtin_scenario
 from hitchpark.native import resolved_compiler
 

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 from flags import WARNINGS
 
-from hitchpark.app.export import PACKAGE_FILES, copy_package
+from hitchpark.app.export import PACKAGE_FILES
+from hitchpark.app.export_folder import copy_package
 from hitchpark.app.exported import ExportedNMPC, _Command, _Measurement, _Pose, _Status
 from hitchpark.app.sil import sil_settings
 from hitchpark.control import make_nmpc

@@ -8,8 +8,9 @@ goal's frame, the commands in flight predicted out, the path's reference; ``pack
 compiled once per OCP: the warm start, the bounds, the solve cascade), the steps of
 :class:`~hitchpark.control.nmpc.FullNMPC` in the same order and arithmetic. What it leaves out: the fallback
 solver (IPOPT, which the in-process controller asks by default when the structured solver fails; ``hitchpark
-sil`` compares with the in-process controller without it) and the obstacle OCP. :func:`package_files` makes the
-files, :func:`write_package` writes them.
+sil`` compares with the in-process controller without it). With ``--obstacles`` the OCPs come again with the
+scene's lines (:data:`GEOMETRY_FILES`). :func:`package_files` makes the files;
+:func:`~.export_folder.write_package` writes them.
 """
 
 from __future__ import annotations
@@ -17,10 +18,8 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import shutil
 from dataclasses import asdict, dataclass, field
 from importlib import resources
-from pathlib import Path
 from typing import Any
 
 import casadi as ca
@@ -28,7 +27,6 @@ import casadi as ca
 from .. import __version__
 from ..checks import InputError
 from ..control.nmpc import COLD_ROUNDS
-from ..io import StagedFolder
 from ..model.integrate import plant_function
 from ..model.plant import PlantSettings
 from ..model.state import Pose, State
@@ -49,7 +47,6 @@ __all__ = [
     "library_sources",
     "package_files",
     "workspace_bound",
-    "write_package",
 ]
 
 #: The package's OCPs, by the name of their C files: (tracking a path, keeping clear of a scene). The order is the
@@ -375,34 +372,3 @@ def _readme(spec: ExportSpec, workspace: int, values: dict[str, int]) -> str:
         .replace("@MAX_HITCH@", f"{v.max_hitch:.6g}")
         .replace("@SETTINGS@", settings)
     )
-
-
-def write_package(out: str | Path, files: dict[str, str], force: bool = False) -> Path:
-    """Write ``files`` into the folder ``out``, whole or not at all (built aside, then published).
-
-    A folder that exists and holds anything is refused (:class:`InputError`) unless ``force``; then the package's
-    own files (:data:`PACKAGE_FILES`) are replaced and the rest left alone.
-    """
-    target = Path(out)
-    if target.exists() and not target.is_dir():
-        raise InputError(f"--out {target} is a file, not a folder")
-    if target.is_dir() and any(target.iterdir()) and not force:
-        raise InputError(f"--out {target} is not empty; pass --force to replace the package files in it")
-    target.mkdir(parents=True, exist_ok=True)
-    staged = StagedFolder(target, PACKAGE_FILES, "--out")
-    with staged as folder:
-        for name, text in files.items():
-            path = folder / name
-            path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(text, encoding="utf-8")
-    return target
-
-
-def copy_package(files: dict[str, str], folder: Path) -> None:
-    """Write ``files`` into an empty scratch ``folder`` (``hitchpark sil``'s build), no staging."""
-    if folder.exists():
-        shutil.rmtree(folder)
-    for name, text in files.items():
-        path = folder / name
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text, encoding="utf-8")

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import InputError, check_instance, check_range
+from ..checks import InputError, check_choice, check_instance, check_range
 from ..control.nmpc import FullNMPC
 from ..control.step import ControlStep
 from ..maneuver.result import ManeuverSettings
@@ -36,9 +36,17 @@ from ..native import cached_library, resolved_compiler
 from ..ocp.obstacles import convex_pieces
 from ..ocp.reference import PathReference
 from ..ocp.settings import NMPCSettings
-from .export import MAX_PIECES, MAX_VERTICES, ExportSpec, copy_package, library_sources, package_files
+from .export import MAX_PIECES, MAX_VERTICES, ExportSpec, library_sources, package_files
+from .export_folder import copy_package
 
-__all__ = ["BUILD_FLAGS", "ExportedNMPC", "build_package", "cached_package_library", "exported_controller_library"]
+__all__ = [
+    "BUILD_FLAGS",
+    "ExportedNMPC",
+    "build_package",
+    "cached_package_library",
+    "exported_controller_library",
+    "sil_settings",
+]
 
 _REAL = ctypes.c_double
 
@@ -118,17 +126,36 @@ def cached_package_library(files: dict[str, str]) -> Path | None:
     return cached_library("hitchpark_nmpc", key, build)
 
 
+def sil_settings(
+    settings: ManeuverSettings, nmpc: NMPCSettings | None = None, process: str | None = None
+) -> ManeuverSettings:
+    """A scenario's maneuver settings as SIL runs them: the full-model NMPC (``nmpc``, else the scenario's when it
+    is of the full kind, else the defaults) as the package holds it, without a fallback solver (the package has
+    no IPOPT: where its solver fails it retries from the cold start, and so does the in-process controller
+    without one). ``process``: ``"staged"`` or ``"planned"``; default the scenario's, which for the paper's
+    scenarios (their NMPC the paper's) is the paper's staged process."""
+    if process is None:
+        process = settings.process.resolved(settings.nmpc.kind)
+    check_choice("process", process, ("staged", "planned"))
+    if nmpc is None:
+        nmpc = settings.nmpc if settings.nmpc.kind == "full" else NMPCSettings()
+    nmpc = replace(nmpc, fallback_solver=None)
+    return replace(settings, nmpc=nmpc, process=replace(settings.process, kind=process))
+
+
 def exported_controller_library(
     vehicle: VehicleTrailer, settings: ManeuverSettings, goal: Pose, plant: PlantSettings | None, scene: Scene
 ) -> tuple[ManeuverSettings, Path]:
     """The settings and the library with which the exported controller drives maneuvers of ``settings``
     (``hitchpark sweep --exported``): the full-model NMPC as ``hitchpark sil`` runs it, without a fallback solver
-    (:func:`~.sil.sil_settings`, the process kept), its package built once into the compile cache, with the
+    (:func:`sil_settings`), its package built once into the compile cache, with the
     obstacle OCP where there is a scene. Raises :class:`InputError` where it cannot be: settings of another NMPC
     than the full model's, or nothing compiles here (no C compiler, compilation switched off)."""
-    nmpc = replace(settings.nmpc, fallback_solver=None)
-    if nmpc.kind != "full":
-        raise InputError(f"--exported drives the full-model NMPC (nmpc.kind 'full'), got nmpc.kind {nmpc.kind!r}")
+    if settings.nmpc.kind != "full":
+        kind = settings.nmpc.kind
+        raise InputError(f"--exported drives the full-model NMPC (nmpc.kind 'full'), got nmpc.kind {kind!r}")
+    settings = sil_settings(settings)
+    nmpc = settings.nmpc
     obstacles = not scene.is_empty and nmpc.obstacle_planes > 0
     plant = plant or PlantSettings()
     spec = ExportSpec(vehicle, nmpc, goal=goal, plant=plant, scenario="sweep", obstacles=obstacles)
@@ -138,7 +165,7 @@ def exported_controller_library(
             "--exported builds the exported package into hitchpark's compile cache: no C compiler here ($CC, else "
             "gcc), compilation switched off (HITCHPARK_JIT=0), or the package did not compile"
         )
-    return replace(settings, nmpc=nmpc), library
+    return settings, library
 
 
 @dataclass

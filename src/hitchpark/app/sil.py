@@ -18,36 +18,18 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import InputError, check_choice
+from ..checks import InputError
 from ..control.nmpc import FullNMPC
 from ..maneuver.process import park
 from ..maneuver.result import ManeuverResult
 from ..maneuver.scenario import Scenario
-from ..maneuver.settings import ManeuverSettings
 from ..model.plant import PlantSettings
 from ..ocp.settings import NMPCSettings
 from ..solvers.registry import takes_free_initial
 from .export import ExportSpec, package_files
-from .exported import ExportedNMPC, build_package, cached_package_library
+from .exported import ExportedNMPC, build_package, cached_package_library, sil_settings
 
 __all__ = ["ExportedNMPC", "SilReport", "build_package", "run_sil", "sil_settings"]
-
-
-def sil_settings(
-    settings: ManeuverSettings, nmpc: NMPCSettings | None = None, process: str | None = None
-) -> ManeuverSettings:
-    """A scenario's maneuver settings as SIL runs them: the full-model NMPC (``nmpc``, else the scenario's when it
-    is of the full kind, else the defaults) as the package holds it, without a fallback solver (the package has
-    no IPOPT: where its solver fails it retries from the cold start, and so does the in-process controller
-    without one). ``process``: ``"staged"`` or ``"planned"``; default the scenario's, which for the paper's
-    scenarios (their NMPC the paper's) is the paper's staged process."""
-    if process is None:
-        process = settings.process.resolved(settings.nmpc.kind)
-    check_choice("process", process, ("staged", "planned"))
-    if nmpc is None:
-        nmpc = settings.nmpc if settings.nmpc.kind == "full" else NMPCSettings()
-    nmpc = replace(nmpc, fallback_solver=None)
-    return replace(settings, nmpc=nmpc, process=replace(settings.process, kind=process))
 
 
 #: The columns compared: the commands, and the true state.

@@ -29,7 +29,8 @@ def _export_spec(args: argparse.Namespace) -> Any:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from ..app.export import package_files, write_package
+    from ..app.export import package_files
+    from ..app.export_folder import write_package
 
     spec = _export_spec(args)
     files = package_files(spec)
