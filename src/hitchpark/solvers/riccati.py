@@ -73,7 +73,9 @@ def riccati_functions(transcription: Any, prefix: str) -> dict[str, ca.Function]
         return [ca.densify(part) for part in parts]
 
     def fn(name: str, inputs: list[Any], outputs: list[Any]) -> ca.Function:
-        return ca.Function(f"{prefix}{name}", inputs, dense(*outputs))
+        # Common subexpressions once (the trailer's sin and cos, 158 calls of libm in a stage's linearization,
+        # are then 25): each merged node is the same operation on the same operands, so the same bits.
+        return ca.Function(f"{prefix}{name}", inputs, dense(*outputs), {"cse": True})
 
     return {
         "HP_LIN0": fn(
@@ -197,7 +199,8 @@ def riccati_nlpsol(
         main, *rest = functions.values()
         return build_library(main, (), compiler, home, library, rest, lambda source: source + text)
 
-    kind = "riccati-" + hashlib.sha256(text.encode()).hexdigest()[:16]
+    graphs = "".join(function.serialize() for function in functions.values())  # their C, as CasADi will write it
+    kind = "riccati-" + hashlib.sha256((text + graphs).encode()).hexdigest()[:16]
     key = cache_key("riccati", nlp, settings, kind=kind)
     sizes = (int(nlp["x"].numel()), int(nlp["p"].numel()), int(nlp["g"].numel()))
     return load_cached(name, key, build, lambda library: GeneratedNLP(library, name, *sizes, dual_floor))
