@@ -1,13 +1,15 @@
-"""The exported controller's step time on the paper's four starts: ``python benchmarks/step_time.py [--rounds R]
-[--settings FILE.toml ...]``.
+"""The exported controller's step time, per OCP: ``python benchmarks/step_time.py [--rounds R] [--settings FILE.toml
+...] [--scenes NAME ...]``.
 
 Builds the package (``hitchpark export``'s, through the compile cache as ``hitchpark sil`` does) for the default
 full-model NMPC and for each ``--settings`` file's [nmpc] (default: ``benchmarks/settings/realtime_iteration.toml``),
-then parks each of the paper's four starts, with the planned and with the staged process, on the scenario's plant
-with the exported controller, ``R`` rounds (default 5) taking turns. The step's time is measured inside C; a step's
-figure is its least over the rounds (the same maneuver each round: a shared machine's preemptions fall out), and
-the table gives their median, p99 and max, with the outcome and final error, per case and over all steps of a
-setting. Exit status 1 if a round drives otherwise than the first (its solver iterations differ).
+then parks each of the paper's four starts, with the planned and with the staged process (the full-model OCP), and
+each scene of ``--scenes`` (default: driveway and campsite) with the planned process and the package exported with
+its obstacles (the obstacle OCP), on the scenario's plant with the exported controller, ``R`` rounds (default 5)
+taking turns. The step's time is measured inside C; a step's figure is its least over the rounds (the same maneuver
+each round: a shared machine's preemptions fall out), and the table gives their median, p99 and max, with the
+outcome and final error, per case and over all steps of an OCP and a setting. Exit status 1 if a round drives
+otherwise than the first (its solver iterations differ).
 """
 
 from __future__ import annotations
@@ -39,18 +41,25 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--settings", type=Path, nargs="*", default=[RTI], help="settings files to time beside the default"
     )
+    parser.add_argument(
+        "--scenes", nargs="*", default=["driveway", "campsite"], help="scenes to time the obstacle OCP on"
+    )
     args = parser.parse_args(argv)
     variants = [("default", None)] + [(path.stem, load_settings(path).nmpc) for path in args.settings]
+    runs = [(name, process, "full-model") for name in BUILTIN_ORDER for process in ("planned", "staged")]
+    runs += [(name, "planned", "obstacle") for name in args.scenes]
     scratch = tempfile.TemporaryDirectory()
     cases = []
     for label, nmpc in variants:
-        for name in BUILTIN_ORDER:
-            for process in ("planned", "staged"):
-                sc = builtin_scenario(name)
-                settings = sil_settings(sc.settings, nmpc, process)
-                files = package_files(ExportSpec(sc.vehicle, settings.nmpc, sc.start, sc.goal, sc.plant, sc.name))
-                library = cached_package_library(files) or build_package(files, Path(scratch.name) / str(len(cases)))
-                cases.append({"label": label, "sc": sc, "process": process, "settings": settings, "lib": library})
+        for name, process, ocp in runs:
+            sc = builtin_scenario(name)
+            settings = sil_settings(sc.settings, nmpc, process)
+            among = ocp == "obstacle"
+            spec = ExportSpec(sc.vehicle, settings.nmpc, sc.start, sc.goal, sc.plant, sc.name, obstacles=among)
+            files = package_files(spec)
+            library = cached_package_library(files) or build_package(files, Path(scratch.name) / str(len(cases)))
+            case = {"label": label, "sc": sc, "process": process, "settings": settings, "lib": library, "ocp": ocp}
+            cases.append(case)
     for _ in range(args.rounds):
         for case in cases:
             sc, settings = case["sc"], case["settings"]
@@ -64,17 +73,19 @@ def main(argv: list[str] | None = None) -> int:
             case["ns"].append(controller.timing.step_ns)
     print(f"{'setting':20s} {'scenario':15s} {'process':8s} {'outcome':9s} {'error mm':>8s} {'stages':>6s} "
           f"{'steps':>5s}  {'median':>7s} {'p99':>7s} {'max':>7s} us  >25us >100us")  # fmt: skip
-    for label, _ in variants:
+    for (label, _), ocp in ((variant, ocp) for variant in variants for ocp in ("full-model", "obstacle")):
         pooled = []
-        for case in (c for c in cases if c["label"] == label):
+        for case in (c for c in cases if c["label"] == label and c["ocp"] == ocp):
             us = np.min(np.asarray(case["ns"], dtype=float), axis=0) / 1e3
             pooled.append(us)
             r = case["result"]
             print(f"{label:20s} {case['sc'].name:15s} {case['process']:8s} {r.reason:9s} "
                   f"{1e3 * r.stages[-1].distance_error_m:8.2f} {len(r.stages):6d} {len(us):5d}  {_figures(us)}    "
                   f"{int((us > 25).sum()):5d} {int((us > 100).sum()):6d}")  # fmt: skip
+        if not pooled:
+            continue
         us = np.concatenate(pooled)
-        print(f"{label:20s} {'all eight':15s} {'':8s} {'':9s} {'':8s} {'':6s} {len(us):5d}  {_figures(us)}    "
+        print(f"{label:20s} {ocp + ' OCP':15s} {'all':8s} {'':9s} {'':8s} {'':6s} {len(us):5d}  {_figures(us)}    "
               f"{int((us > 25).sum()):5d} {int((us > 100).sum()):6d}")  # fmt: skip
     return 0
 

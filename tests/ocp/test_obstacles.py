@@ -146,6 +146,43 @@ def test_the_compiled_parameters_are_numpys_to_the_last_bit(name, jit_cache):
     assert drawn > 1000  # lines drawn, not only unused slots
 
 
+def _crowd(rng: np.random.Generator, count: int) -> Scene:
+    """``count`` convex obstacles of 3 to 7 vertices (pieces padded to the largest), 0.2 to 3 m across, in a
+    24 x 24 m square about the origin, some overlapping."""
+    obstacles = []
+    for i in range(count):
+        sides = int(rng.integers(3, 8))
+        angles = np.sort(rng.uniform(0.0, 2.0 * np.pi, sides))
+        radius = rng.uniform(0.1, 1.5)
+        ring = rng.uniform(-12.0, 12.0, 2) + radius * np.column_stack([np.cos(angles), np.sin(angles)])
+        hull = shapely.convex_hull(shapely.MultiPoint(ring))
+        if hull.geom_type == "Polygon" and hull.area > 1e-3:
+            obstacles.append(Obstacle(f"o{i}", np.asarray(hull.exterior.coords, dtype=float)[:-1]))
+    return Scene(tuple(obstacles))
+
+
+@pytest.mark.parametrize("planes", [1, 3, 17])
+def test_the_compiled_parameters_among_many_pieces_are_numpys(planes, jit_cache):
+    """In a crowd of pieces (most of them out of the lines' reach or farther than the nearest few, which the C
+    does not measure) the compiled lines are NumPy's to the last bit: bodies over pieces, touching them and
+    between them, anchored or not, keeping the warm start's lines or not; 17 planes measure every piece."""
+    rng = np.random.default_rng(17 + planes)
+    assert obstacles_module._kernel(True, str(jit_cache[0])) is not None
+    drawn = 0
+    for _ in range(6):
+        lines = ClearanceConstraints(VEHICLE, planes)
+        lines.use(_crowd(rng, 60), float(rng.uniform(0.0, 0.4)))
+        for trial in range(6):
+            base = np.array([*rng.uniform(-10.0, 10.0, 2), rng.uniform(-np.pi, np.pi), rng.uniform(-0.6, 0.6)])
+            walk = base + np.cumsum(rng.normal(0.0, [0.3, 0.3, 0.05, 0.05], (11, 4)), 0)
+            plan = np.column_stack([walk, np.zeros((11, 2))])
+            for anchored, keep_warm in ((True, False), (True, True), (False, False)):
+                got = lines.parameters(Pose(), plan, anchored, keep_warm)
+                assert np.array_equal(got, lines.parameters_numpy(Pose(), plan, anchored, keep_warm)), trial
+                drawn += int(np.sum(got[2::3] != -1.0))
+    assert drawn > 300 * planes  # lines drawn, not only unused slots
+
+
 def test_pieces_at_the_same_distance_keep_their_order(jit_cache):
     """A body that overlaps two pieces is at distance 0 from both: the lines come in the pieces' order, compiled or
     not, on any machine (a stable sort; NumPy's default one orders ties as its build and processor do)."""

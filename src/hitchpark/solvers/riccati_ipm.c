@@ -274,8 +274,9 @@ static void hp_barrier_gradient(const struct hp_stage* s, int nv, const real* r,
   }
 }
 
-/* Ht = hess + Jc' Sigma Jc + delta I. */
-static void hp_barrier_hessian(struct hp_stage* s, int nv, real delta) {
+/* Ht = hess + Jc' Sigma Jc + delta I. upper (a stage before the last): hp_backward reads the upper triangle of its
+ * Ht alone (i <= j), so the rows' terms go there alone; the last stage's Ht is its P, whole. */
+static void hp_barrier_hessian(struct hp_stage* s, int nv, int upper, real delta) {
   int i, a, b;
   memcpy(s->Ht, s->hess, sizeof(real) * nv * nv);
   for (i = 0; i < HP_NR; ++i) {
@@ -283,7 +284,8 @@ static void hp_barrier_hessian(struct hp_stage* s, int nv, real delta) {
     if (d == 0.0) continue;
     for (b = 0; b < HP_NX; ++b) {
       real jb = d * s->J[i + HP_NR * b];
-      for (a = 0; a < HP_NX; ++a) s->Ht[a + nv * b] += s->J[i + HP_NR * a] * jb;
+      int last = upper ? b : HP_NX - 1;
+      for (a = 0; a <= last; ++a) s->Ht[a + nv * b] += s->J[i + HP_NR * a] * jb;
     }
   }
   for (i = 0; i < nv; ++i) {
@@ -765,7 +767,7 @@ static int hp_solve(struct hp_work* m, const real** arg, real** res, int warm, r
     hp_gradients(m);
     delta = 0.0;
     for (;;) {
-      for (k = 0; k <= HP_N; ++k) hp_barrier_hessian(&m->st[k], hp_nv(k), delta);
+      for (k = 0; k <= HP_N; ++k) hp_barrier_hessian(&m->st[k], hp_nv(k), k < HP_N, delta);
       if (!hp_backward(m)) break;
       delta = delta == 0.0 ? (m->delta_last == 0.0 ? 1e-4 : hp_fmax(1e-20, m->delta_last / 3.0)) : 8.0 * delta;
       if (delta > 1e40) { code = 2; goto done; }
