@@ -16,10 +16,11 @@ import numpy as np
 import pytest
 from flags import WARNINGS
 
-from hitchpark.app.export import PACKAGE_FILES
+from hitchpark.app.export import PACKAGE_FILES, ExportSpec, package_files
 from hitchpark.app.export_folder import copy_package
 from hitchpark.app.exported import ExportedNMPC, _Command, _Measurement, _Pose, _Status
 from hitchpark.app.sil import sil_settings
+from hitchpark.app.sweep import load_settings
 from hitchpark.control import make_nmpc
 from hitchpark.maneuver.process import park
 from hitchpark.maneuver.scenario import builtin_scenario
@@ -215,6 +216,31 @@ def test_the_example_parks_from_random_as_park_does(built, compiled_in_process):
     for i, name in enumerate((*columns, "front_steer_cmd", "rear_speed_cmd")):
         np.testing.assert_allclose(rows[:, i], np.asarray(traj[name], dtype=float), rtol=0, atol=1e-9, err_msg=name)
     assert math.hypot(rows[-1, 1] - traj["x_trailer"][-1], rows[-1, 2] - traj["y_trailer"][-1]) <= 1e-6
+
+
+SINGLE_PRECISION = Path(__file__).parents[2] / "benchmarks" / "settings" / "single_precision.toml"
+
+
+@pytest.mark.slow
+def test_in_single_precision_the_example_parks_as_park_does_in_double(tmp_path, c_compiler, compiled_in_process):
+    """Built with -DHITCHPARK_REAL=float (warnings as errors) from benchmarks/settings/single_precision.toml (a
+    tolerance float resolves: 1e-3), the example parks from random's start, row for row with hitchpark's own double
+    precision maneuver of the same settings, its trailer within 0.1 mm and its commanded steer within 1e-3 rad."""
+    sc = builtin_scenario("random")
+    settings = sil_settings(sc.settings, load_settings(SINGLE_PRECISION).nmpc)
+    assert settings.nmpc.solver_options == {"tol": 1e-3, "mu": 1e-4}
+    copy_package(package_files(ExportSpec(sc.vehicle, settings.nmpc, sc.start, sc.goal, sc.plant, sc.name)), tmp_path)
+    done = _build(c_compiler, tmp_path, "-DHITCHPARK_REAL=float")
+    assert done.returncode == 0 and not done.stderr.strip(), done.stderr
+    run = subprocess.run([str(tmp_path / "example")], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr  # parked within 5 cm
+    rows = np.array([[float(v) for v in line.split(",")] for line in run.stdout.splitlines()[1:]])
+    traj = park(sc.vehicle, sc.start, sc.goal, settings, sc.name, plant=sc.plant).trajectory
+    assert len(rows) == len(traj["t"])
+    trailer = np.hypot(rows[:, 1] - np.asarray(traj["x_trailer"]), rows[:, 2] - np.asarray(traj["y_trailer"]))
+    assert trailer.max() <= 1e-4
+    assert np.abs(rows[:, 7] - np.asarray(traj["front_steer_cmd"])).max() <= 1e-3
+    assert not np.array_equal(rows[:, 7], np.asarray(traj["front_steer_cmd"]))  # float's rounding, not double's
 
 
 @pytest.mark.slow
