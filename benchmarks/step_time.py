@@ -25,6 +25,7 @@ from hitchpark.app.export import ExportSpec, package_files
 from hitchpark.app.exported import ExportedNMPC, build_package, cached_package_library
 from hitchpark.app.sil import sil_settings
 from hitchpark.app.sweep import load_settings
+from hitchpark.checks import InputError
 from hitchpark.maneuver.process import park
 from hitchpark.maneuver.scenario import BUILTIN_ORDER, builtin_scenario
 
@@ -45,7 +46,13 @@ def main(argv: list[str] | None = None) -> int:
         "--scenes", nargs="*", default=["driveway", "campsite"], help="scenes to time the obstacle OCP on"
     )
     args = parser.parse_args(argv)
-    variants = [("default", None)] + [(path.stem, load_settings(path).nmpc) for path in args.settings]
+    try:
+        variants = [("default", None)] + [(path.stem, load_settings(path).nmpc) for path in args.settings]
+        for name in args.scenes:
+            builtin_scenario(name)
+    except InputError as exc:
+        print(f"step_time: error: {exc}", file=sys.stderr)
+        return 2
     runs = [(name, process, "full-model") for name in BUILTIN_ORDER for process in ("planned", "staged")]
     runs += [(name, "planned", "obstacle") for name in args.scenes]
     scratch = tempfile.TemporaryDirectory()

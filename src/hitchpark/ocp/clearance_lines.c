@@ -83,17 +83,9 @@ static int hp_overlaps(const double *body, const double *a) {
     const double *b = a + 2;
     int inside = 1;
     for (int e = 0; e < 4; e++) {
-        const double *s0 = body + 2 * e, *s1 = body + 2 * ((e + 1) % 4);
-        double o3 = cross(s1[0] - s0[0], s1[1] - s0[1], a[0] - s0[0], a[1] - s0[1]);
+        double o3;
+        if (edge_crossing(a, b, body + 2 * e, body + 2 * ((e + 1) % 4), &o3)) return 1;
         if (!(o3 > 0.0)) inside = 0;
-        {
-            double o1 = cross(b[0] - a[0], b[1] - a[1], s0[0] - a[0], s0[1] - a[1]);
-            double o2 = cross(b[0] - a[0], b[1] - a[1], s1[0] - a[0], s1[1] - a[1]);
-            if (o1 * o2 < 0.0) {
-                double o4 = cross(s1[0] - s0[0], s1[1] - s0[1], b[0] - s0[0], b[1] - s0[1]);
-                if (o3 * o4 < 0.0) return 1;
-            }
-        }
     }
     return inside;
 }

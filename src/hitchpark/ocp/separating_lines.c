@@ -29,6 +29,15 @@ static void nearest_on(const double *p, const double *a, const double *b, double
 
 static double cross(double ux, double uy, double vx, double vy) { return ux * vy - uy * vx; }
 
+/* Segment a-b properly crosses edge s0-s1 (each one's ends strictly either side of the other's line); *o3: where a
+   lies from the edge (> 0: left of it, the body's inner side). */
+static int edge_crossing(const double *a, const double *b, const double *s0, const double *s1, double *o3) {
+    double o1 = cross(b[0] - a[0], b[1] - a[1], s0[0] - a[0], s0[1] - a[1]);
+    double o2 = cross(b[0] - a[0], b[1] - a[1], s1[0] - a[0], s1[1] - a[1]);
+    *o3 = cross(s1[0] - s0[0], s1[1] - s0[1], a[0] - s0[0], a[1] - s0[1]);
+    return o1 * o2 < 0.0 && *o3 * cross(s1[0] - s0[0], s1[1] - s0[1], b[0] - s0[0], b[1] - s0[1]) < 0.0;
+}
+
 /* np.argmin's choice: the first least, or the first NaN. */
 static int better(double value, double best) { return value < best || (value != value && best == best); }
 
@@ -69,11 +78,8 @@ int hp_separating_lines(hp_int k, hp_int c, const double *points, hp_int m, cons
                     }
                 }
                 /* Overlap: a proper crossing of this edge and the segment; the segment's first end inside. */
-                double o1 = cross(b[0] - a[0], b[1] - a[1], s0[0] - a[0], s0[1] - a[1]);
-                double o2 = cross(b[0] - a[0], b[1] - a[1], s1[0] - a[0], s1[1] - a[1]);
-                double o3 = cross(s1[0] - s0[0], s1[1] - s0[1], a[0] - s0[0], a[1] - s0[1]);
-                double o4 = cross(s1[0] - s0[0], s1[1] - s0[1], b[0] - s0[0], b[1] - s0[1]);
-                if (o1 * o2 < 0.0 && o3 * o4 < 0.0) crossing = 1;
+                double o3;
+                if (edge_crossing(a, b, s0, s1, &o3)) crossing = 1;
                 if (!(o3 > 0.0)) inside = 0;
             }
             if (c > 2 && inside) crossing = 1;
