@@ -234,7 +234,7 @@ def package_files(spec: ExportSpec) -> dict[str, str]:
     workspace = workspace_bound(blocks, s.horizon, work, MAX_PATH, n_lines)
     if spec.obstacles:  # the scene, framed, the lines' scratch, a cold start's plans (hitchpark_nmpc.c)
         nw = (s.horizon + 1) * 8 - 2
-        workspace += 8 * (MAX_PIECES * MAX_VERTICES * 11 + MAX_PIECES * (6 + MAX_VERTICES) + (s.horizon + 1) * 6)
+        workspace += 8 * (MAX_PIECES * MAX_VERTICES * 11 + MAX_PIECES * (11 + MAX_VERTICES) + (s.horizon + 1) * 6)
         workspace += 8 * (3 * nw + 8) + 4 * 8 + 8 * 3 * 2
     step = float(s.prediction_dt)
     ramp = max(1, round(0.5 * abs(s.speed_min) / (v.max_accel * step)))  # FullNMPC._cold_inputs

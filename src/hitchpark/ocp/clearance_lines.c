@@ -14,8 +14,9 @@
             edges (j, size, 2, 2) (vertex i to i + 1, the last to the first), outward normals (j, size, 2) (0 where
             the edge is not real), real (j, size) 1 or 0
    out      (N, bodies, planes, 3): per step, body and line, (n_x, n_y, h + c); (0, 0, -1) unused
-   scratch  at least (6 + size) * j doubles
+   scratch  at least (11 + size) * j doubles
 */
+#include <string.h>
 #include "separating_lines.c"
 
 #define HP_REACH 2.5 /* obstacles.REACH_M */
@@ -24,7 +25,18 @@ typedef struct {
     hp_int n, size;
     const double *vertices, *edges, *outward, *real;
     const double *extent; /* (n, size): each edge's outward normal's largest product with the piece's vertices */
+    const double *box;    /* (n, 4): each piece's least x, y and greatest x, y */
+    const hp_int *distinct; /* (n): each piece's vertices up to its last distinct one (the padding repeats it) */
 } hp_pieces;
+
+/* The vertices of a piece padded to `size` with its last (obstacles._padded) up to the last that differs from the
+   one before it, bit for bit: a greatest product over the vertices may stop there (most of a number it already took
+   is that number, bit for bit). The edges may not (the last, back to the first, is real). */
+static hp_int hp_distinct(const double *vert, hp_int size) {
+    hp_int count = size;
+    while (count > 1 && memcmp(vert + 2 * (count - 1), vert + 2 * (count - 2), 2 * sizeof(double)) == 0) count--;
+    return count;
+}
 
 /* body_corners at one configuration: the bodies as quads (a segment a-b as a, b, b, a), (bodies, 4, 2). */
 static hp_int hp_bodies(const double *x4, const double *shape, double *quads) {
@@ -78,16 +90,33 @@ static int hp_in_reach(double x, double y) {
 }
 
 /* The overlap of hp_separating_lines (one body of 4 corners, one segment a-b): a proper crossing of an edge and the
-   segment, or the segment's first end inside the body. Its distances and line are then not used. */
+   segment (edge_crossing's), or the segment's first end inside the body. Its distances and line are then not used.
+   Each corner's side of the segment is edge_crossing's o1 of its edge and o2 of the edge before, the same number:
+   worked out once; an edge whose ends are not strictly either side cannot cross, and once the first end is known to
+   be outside, such an edge needs nothing more. */
 static int hp_overlaps(const double *body, const double *a) {
     const double *b = a + 2;
+    double side[4];
     int inside = 1;
+    for (int c = 0; c < 4; c++) side[c] = cross(b[0] - a[0], b[1] - a[1], body[2 * c] - a[0], body[2 * c + 1] - a[1]);
     for (int e = 0; e < 4; e++) {
+        const double *s0 = body + 2 * e, *s1 = body + 2 * ((e + 1) % 4);
+        int straddles = side[e] * side[(e + 1) % 4] < 0.0;
         double o3;
-        if (edge_crossing(a, b, body + 2 * e, body + 2 * ((e + 1) % 4), &o3)) return 1;
+        if (!straddles && !inside) continue;
+        o3 = cross(s1[0] - s0[0], s1[1] - s0[1], a[0] - s0[0], a[1] - s0[1]);
+        if (straddles && o3 * cross(s1[0] - s0[0], s1[1] - s0[1], b[0] - s0[0], b[1] - s0[1]) < 0.0) return 1;
         if (!(o3 > 0.0)) inside = 0;
     }
     return inside;
+}
+
+/* hypot(dx, dy) surely greater than best: its square, rounded, past best's by far more than either's rounding (1e-10
+   relative; hypot is within an ulp), so that better(hypot, best) is false without the hypot. best's square a normal
+   number (1e-150 < best < 1e150) so that its rounding is relative; dx's or dy's square lost to underflow only makes
+   the sum smaller (measured, then); NaN: not surely, measured. */
+static int hp_farther(double dx, double dy, double best) {
+    return best > 1e-150 && best < 1e150 && dx * dx + dy * dy > best * best * (1.0 + 1e-10);
 }
 
 /* The least of (lo - p, p - hi) along x and y: how far p is outside the box lo-hi along one axis (a lower bound of
@@ -111,6 +140,7 @@ static void hp_gap(const double *body, const double *a, const double *free_norma
         double q[2], gap;
         if (i_corner >= 0 && hp_outside(p, lo, hi) - margin > d_corner) continue; /* farther than the nearest */
         nearest_on(p, a, b, q);
+        if (i_corner >= 0 && hp_farther(p[0] - q[0], p[1] - q[1], d_corner)) continue;
         gap = hypot(p[0] - q[0], p[1] - q[1]);
         if (i_corner < 0 || better(gap, d_corner)) i_corner = corner, d_corner = gap, q_best[0] = q[0], q_best[1] = q[1];
     }
@@ -125,6 +155,7 @@ static void hp_gap(const double *body, const double *a, const double *free_norma
             double r[2], gap, bound = hp_outside(tip, elo, ehi) - margin;
             if (bound > d_corner || (i_tip >= 0 && bound > d_tip)) continue;
             nearest_on(tip, s0, s1, r);
+            if (i_tip >= 0 && hp_farther(tip[0] - r[0], tip[1] - r[1], d_tip)) continue;
             gap = hypot(tip[0] - r[0], tip[1] - r[1]);
             if (i_tip < 0 || better(gap, d_tip)) i_tip = 2 * e + t, d_tip = gap, r_best[0] = r[0], r_best[1] = r[1];
         }
@@ -181,26 +212,30 @@ static void hp_finish(const double *points, const double *anchor, const hp_piece
     hp_int size = pc->size;
     const double *vert = pc->vertices + 2 * size * j, *out = pc->outward + 2 * size * j, *real = pc->real + size * j;
     int overlap = dist <= 1e-9;
-    double near_score, h_near = -INFINITY, edge_score = -INFINITY, reach_v;
-    hp_int edge = -1;
-    for (hp_int v = 0; v < size; v++) h_near = v == 0 ? dot(nearest, vert) : most(h_near, dot(nearest, vert + 2 * v));
+    double near_score, h_near, edge_score = -INFINITY, reach_v;
+    hp_int edge = -1, distinct = pc->distinct[j];
     near_score = dist;
     if (anchor) {
+        h_near = dot(nearest, vert);
+        for (hp_int v = 1; v < distinct; v++) h_near = most(h_near, dot(nearest, vert + 2 * v));
         double a = dot(anchor, nearest);
         for (int c = 1; c < 4; c++) a = least(a, dot(anchor + 2 * c, nearest));
         near_score = least(near_score, a - h_near);
     }
-    /* The edge whose line leaves the widest gap to the body (here, and where the car is now). */
+    /* The edge whose line leaves the widest gap to the body (here, and where the car is now); one that is not real
+       scores -inf whatever its reach, which is then not worked out. */
     for (hp_int v = 0; v < size; v++) {
-        double extent = pc->extent[size * j + v], margin;
-        reach_v = dot(points, out + 2 * v);
-        for (int c = 1; c < 4; c++) reach_v = least(reach_v, dot(points + 2 * c, out + 2 * v));
-        if (anchor) {
-            double a = dot(anchor, out + 2 * v);
-            for (int c = 1; c < 4; c++) a = least(a, dot(anchor + 2 * c, out + 2 * v));
-            reach_v = least(reach_v, a);
+        double margin = -INFINITY;
+        if (real[v] != 0.0) {
+            reach_v = dot(points, out + 2 * v);
+            for (int c = 1; c < 4; c++) reach_v = least(reach_v, dot(points + 2 * c, out + 2 * v));
+            if (anchor) {
+                double a = dot(anchor, out + 2 * v);
+                for (int c = 1; c < 4; c++) a = least(a, dot(anchor + 2 * c, out + 2 * v));
+                reach_v = least(reach_v, a);
+            }
+            margin = reach_v - pc->extent[size * j + v];
         }
-        margin = real[v] != 0.0 ? reach_v - extent : -INFINITY;
         /* np.argmax: the first greatest, or the first NaN */
         if (edge < 0 || margin > edge_score || (margin != margin && edge_score == edge_score))
             edge = v, edge_score = margin;
@@ -208,7 +243,7 @@ static void hp_finish(const double *points, const double *anchor, const hp_piece
     if (overlap || edge_score >= near_score) n[0] = out[2 * edge], n[1] = out[2 * edge + 1];
     else n[0] = nearest[0], n[1] = nearest[1];
     *h = dot(n, vert);
-    for (hp_int v = 1; v < size; v++) *h = most(*h, dot(n, vert + 2 * v));
+    for (hp_int v = 1; v < distinct; v++) *h = most(*h, dot(n, vert + 2 * v));
 }
 
 /* ClearanceConstraints.lines's distance for one body and one piece where it needs no edge measured: out of reach
@@ -217,15 +252,12 @@ static double hp_known(const double *points, const double *low, const double *hi
                        double *bound) {
     hp_int size = pc->size;
     const double *vert = pc->vertices + 2 * size * j, *out = pc->outward + 2 * size * j, *real = pc->real + size * j;
-    double vmin[2], vmax[2], apart[2];
+    const double *vmin = pc->box + 4 * j, *vmax = vmin + 2;
+    double apart[2];
     int inside = 1;
-    for (int x = 0; x < 2; x++) {
-        vmin[x] = vmax[x] = vert[x];
-        for (hp_int v = 1; v < size; v++) vmin[x] = least(vmin[x], vert[2 * v + x]), vmax[x] = most(vmax[x], vert[2 * v + x]);
-        apart[x] = most(most(vmin[x] - high[x], low[x] - vmax[x]), 0.0);
-    }
+    for (int x = 0; x < 2; x++) apart[x] = most(most(vmin[x] - high[x], low[x] - vmax[x]), 0.0);
     /* A body wholly inside the piece: its first corner left of every real edge. */
-    for (hp_int v = 0; v < size; v++) {
+    for (hp_int v = 0; v < size && inside; v++) {
         double side = (points[0] - vert[2 * v]) * out[2 * v] + (points[1] - vert[2 * v + 1]) * out[2 * v + 1];
         if (!(side < 0.0 || real[v] == 0.0)) inside = 0;
     }
@@ -253,8 +285,9 @@ int hp_clearance_lines(hp_int n_steps, const double *states, hp_int stride, cons
                        hp_int size, const double *vertices, const double *edges, const double *outward,
                        const double *real, hp_int planes, double clearance, int anchored, int keep_warm,
                        double *scratch, double *out) {
-    hp_pieces pc = {n_pieces, size, vertices, edges, outward, real, scratch + 6 * n_pieces};
-    double *extent = scratch + 6 * n_pieces;
+    double *extent = scratch + 6 * n_pieces, *box = scratch + (6 + size) * n_pieces;
+    hp_int *distinct = (hp_int *) (scratch + (10 + size) * n_pieces);
+    hp_pieces pc = {n_pieces, size, vertices, edges, outward, real, extent, box, distinct};
     double quads[4 * 8], low[2] = {0.0, 0.0}, high[2] = {0.0, 0.0}, largest = 0.0, margin;
     hp_int n_bodies = shape[8] != 0.0 ? 4 : 3, within = 0;
     double *dist = scratch, *nx = scratch + n_pieces, *ny = scratch + 2 * n_pieces, *lb = scratch + 3 * n_pieces;
@@ -276,11 +309,14 @@ int hp_clearance_lines(hp_int n_steps, const double *states, hp_int stride, cons
     for (int x = 0; x < 2; x++) low[x] = low[x] - HP_REACH, high[x] = high[x] + HP_REACH;
     for (hp_int j = 0; j < n_pieces; j++) {
         const double *vert = vertices + 2 * size * j;
+        double *lo = box + 4 * j, *hi = lo + 2;
         int meets = 1;
+        distinct[j] = hp_distinct(vert, size);
         for (int x = 0; x < 2; x++) {
-            double lo = vert[x], hi = vert[x];
-            for (hp_int v = 1; v < size; v++) lo = least(lo, vert[2 * v + x]), hi = most(hi, vert[2 * v + x]);
-            if (!(hi >= low[x] && lo <= high[x])) meets = 0;
+            lo[x] = hi[x] = vert[x];
+            for (hp_int v = 1; v < distinct[j]; v++)
+                lo[x] = least(lo[x], vert[2 * v + x]), hi[x] = most(hi[x], vert[2 * v + x]);
+            if (!(hi[x] >= low[x] && lo[x] <= high[x])) meets = 0;
         }
         if (meets) piece[within++] = j;
     }
@@ -288,9 +324,10 @@ int hp_clearance_lines(hp_int n_steps, const double *states, hp_int stride, cons
     for (hp_int i = 0; i < within; i++) { /* np.einsum("jvx,jwx->jvw", outward, vertices).max(axis=2) */
         hp_int j = piece[i];
         const double *vert = vertices + 2 * size * j, *out_j = outward + 2 * size * j;
-        for (hp_int v = 0; v < size; v++) {
+        for (hp_int v = 0; v < size; v++) { /* read for real edges alone */
             double e = dot(out_j + 2 * v, vert);
-            for (hp_int w = 1; w < size; w++) e = most(e, dot(out_j + 2 * v, vert + 2 * w));
+            if (real[size * j + v] == 0.0) continue;
+            for (hp_int w = 1; w < distinct[j]; w++) e = most(e, dot(out_j + 2 * v, vert + 2 * w));
             extent[size * j + v] = e;
         }
         for (hp_int v = 0; v < 2 * size; v++) largest = most(largest, fabs(vert[v]));

@@ -284,7 +284,7 @@ class ClearanceConstraints:
         vertices, edges, outward, real = self._kernel_pieces(goal)
         n_steps = len(states) - 1
         out = np.empty(n_steps * self.n_params)
-        scratch = np.empty((6 + vertices.shape[1]) * len(vertices))
+        scratch = np.empty((11 + vertices.shape[1]) * len(vertices))
         kernel(
             n_steps, states.ctypes.data, states.shape[1], self._shape.ctypes.data, len(vertices), vertices.shape[1],
             vertices.ctypes.data, edges.ctypes.data, outward.ctypes.data, real.ctypes.data, self.planes,

@@ -70,7 +70,7 @@ struct hitchpark_nmpc {
   hpc_real edges[HITCHPARK_NMPC_MAX_PIECES * HITCHPARK_NMPC_MAX_VERTICES * 4];
   hpc_real outward[HITCHPARK_NMPC_MAX_PIECES * HITCHPARK_NMPC_MAX_VERTICES * 2];
   hpc_real real_edge[HITCHPARK_NMPC_MAX_PIECES * HITCHPARK_NMPC_MAX_VERTICES];
-  hpc_real scratch[HITCHPARK_NMPC_MAX_PIECES * (6 + HITCHPARK_NMPC_MAX_VERTICES)];
+  hpc_real scratch[HITCHPARK_NMPC_MAX_PIECES * (11 + HITCHPARK_NMPC_MAX_VERTICES)];
   hpc_real states[(HPC_N + 1) * HPC_NX];          /* X_0..X_N the lines are drawn around */
   hpc_real guess[HPC_NW], start[HPC_NW], iterate[HPC_NW]; /* a cold start's */
 #endif
