@@ -32,8 +32,8 @@ import numpy as np
 
 __all__ = [
     "FLAGS",
-    "SOURCE_FLAGS",
     "MAX_INSTANCES",
+    "SOURCE_FLAGS",
     "CompiledFunction",
     "LibraryCall",
     "build_library",
