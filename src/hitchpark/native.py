@@ -58,9 +58,9 @@ __all__ = [
 FLAGS = ("-O1", "-ffp-contract=off")
 
 #: Compiler flags of hitchpark's own C kernels (:func:`load_source`: the separating lines, the collision checker, the
-#: planner's discs): small files that compile in a fraction of a second at any level, and whose loops run nearly
-#: twice as fast at -O2 as at -O1 (the obstacle OCP's lines of a step, ``benchmarks/obstacle_tick.py``). No level
-#: reorders a floating-point operation: the same bits.
+#: planner's discs): -O2, as the exported package's Makefile builds the lines; -O1 (:data:`FLAGS`) is for the large
+#: files CasADi writes, whose compile time it halves. These are small files that compile in a fraction of a second
+#: at any level. No level reorders a floating-point operation: the same bits.
 SOURCE_FLAGS = ("-O2", "-ffp-contract=off")
 
 #: Callers of one generated library that may live at once in a process (each checks out its own memory).
