@@ -34,9 +34,9 @@ def _star(rng: np.random.Generator, centre: np.ndarray, k: int) -> np.ndarray:
 
 @pytest.mark.parametrize("name", ["driveway_fence", "hammerhead", "curb_parallel", "loading_dock"])
 @pytest.mark.parametrize("tolerance", [0.0, 0.15])
-def test_the_compiled_clearance_is_shapelys(jit_cache, name, tolerance):
+def test_the_compiled_clearance_is_shapelys(shared_jit_cache, name, tolerance):
     scenario = builtin_scenario(name)
-    assert checker_module._kernel(True, str(jit_cache[0])) is not None  # the compiled code, not Shapely again
+    assert checker_module._kernel(True, str(shared_jit_cache[0])) is not None  # the compiled code, not Shapely again
     vehicle = replace(scenario.vehicle, length_tolerance=tolerance)
     checker = SceneChecker(vehicle, scenario.scene)
     configs = _configs(np.random.default_rng(3), scenario.scene, 3000)
@@ -47,7 +47,7 @@ def test_the_compiled_clearance_is_shapelys(jit_cache, name, tolerance):
     assert (want == 0.0).any() and (want > 0.0).any()  # both touching and clear configurations are compared
 
 
-def test_non_convex_obstacles_without_an_area(jit_cache):
+def test_non_convex_obstacles_without_an_area(shared_jit_cache):
     """Star-shaped obstacles (bodies inside them, around them, across them), no area: Shapely's answers."""
     rng = np.random.default_rng(4)
     centres, sizes = rng.uniform(-12.0, 12.0, (12, 2)), rng.integers(3, 12, 12)
@@ -61,7 +61,7 @@ def test_non_convex_obstacles_without_an_area(jit_cache):
         assert np.array_equal(got == 0.0, want == 0.0)
 
 
-def test_an_area_alone_and_a_body_outside_it(jit_cache):
+def test_an_area_alone_and_a_body_outside_it(shared_jit_cache):
     scene = Scene(area=Area(np.array([[0.0, 0.0], [30.0, 0.0], [30.0, 8.0], [12.0, 8.0], [12.0, 20.0], [0.0, 20.0]])))
     checker = SceneChecker(VehicleTrailer(), scene)
     configs = _configs(np.random.default_rng(5), scene, 3000)
@@ -71,7 +71,7 @@ def test_an_area_alone_and_a_body_outside_it(jit_cache):
     assert np.array_equal(outside, [0.0, 0.0])
 
 
-def test_the_swept_bound_is_the_same_compiled_or_not(jit_cache, monkeypatch):
+def test_the_swept_bound_is_the_same_compiled_or_not(shared_jit_cache, monkeypatch):
     """A maneuver-long motion: the same least bound and row, to rounding, with the compiled distances and without."""
     scenario = builtin_scenario("hammerhead")
     rng = np.random.default_rng(6)

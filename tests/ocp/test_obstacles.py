@@ -68,10 +68,10 @@ grid_or_not = st.one_of(coordinate, st.integers(-3, 3).map(float))
 
 @settings(max_examples=150, deadline=None)
 @given(st.data())
-def test_the_compiled_lines_are_numpys_to_the_last_bit(jit_cache, data):
+def test_the_compiled_lines_are_numpys_to_the_last_bit(shared_jit_cache, data):
     """Compiled (separating_lines.c), the lines are NumPy's bit for bit: bodies as segments and polygons,
     one set of segments for every body or each its own, segments of zero length, ties of the nearest pair."""
-    assert separating_module._kernel(True, str(jit_cache[0])) is not None  # the compiled code, not NumPy again
+    assert separating_module._kernel(True, str(shared_jit_cache[0])) is not None  # the compiled code, not NumPy again
     k, c, m = data.draw(st.integers(1, 4)), data.draw(st.sampled_from([2, 4])), data.draw(st.integers(1, 5))
     each_own = data.draw(st.booleans())
 
@@ -89,7 +89,7 @@ def test_the_compiled_lines_are_numpys_to_the_last_bit(jit_cache, data):
         assert np.array_equal(got, want, equal_nan=True)
 
 
-def test_the_compiled_lines_refuse_shapes_that_do_not_fit(jit_cache):
+def test_the_compiled_lines_refuse_shapes_that_do_not_fit(shared_jit_cache):
     """Where NumPy would not broadcast, the compiled call raises rather than read past an array."""
     points, ends = np.zeros((3, 4, 2)), np.zeros((2, 5, 2, 2))
     with pytest.raises(ValueError, match="do not fit 3 bodies"):
@@ -108,14 +108,14 @@ def test_where_the_compiler_refuses_the_lines_are_numpys(jit_cache, monkeypatch)
     assert not list(jit_cache[0].glob("separating_lines-c-*/*.so"))
 
 
-def test_a_scenes_lines_are_the_same_compiled_or_not(jit_cache, monkeypatch):
+def test_a_scenes_lines_are_the_same_compiled_or_not(shared_jit_cache, monkeypatch):
     """The NMPC's parameters among obstacles, drawn with the compiled lines and with NumPy's, are equal."""
     lines = ClearanceConstraints(VEHICLE, 3)
     lines.use(SCENE, 0.25)
     goal, rng = Pose(0.5, -0.2, 0.05), np.random.default_rng(11)
     start = np.array([1.0, 0.0, 0.0, 0.0])
     plans = [start + np.cumsum(rng.normal(0.0, [0.4, 0.2, 0.05, 0.05], (11, 4)), axis=0) for _ in range(8)]
-    assert obstacles_module._kernel(True, str(jit_cache[0])) is not None  # the compiled parameters
+    assert obstacles_module._kernel(True, str(shared_jit_cache[0])) is not None  # the compiled parameters
     compiled = [lines.parameters(goal, plan, keep_warm=True) for plan in plans]
     monkeypatch.setattr(separating_module, "_kernel", lambda *_: None)
     for plan, got in zip(plans, compiled, strict=True):
@@ -124,7 +124,7 @@ def test_a_scenes_lines_are_the_same_compiled_or_not(jit_cache, monkeypatch):
 
 
 @pytest.mark.parametrize("name", ["driveway", "loading_dock", "curb_parallel", "boat_ramp"])
-def test_the_compiled_parameters_are_numpys_to_the_last_bit(name, jit_cache):
+def test_the_compiled_parameters_are_numpys_to_the_last_bit(name, shared_jit_cache):
     """clearance_lines.c (in-process where it compiles, and in the exported package) draws each step's lines as
     the NumPy does, bit for bit: random warm starts about the scene's start and goal, anchored or not, keeping
     the warm start's lines or not, on scenes of convex and non-convex obstacles and the ground outside an area."""
@@ -162,12 +162,12 @@ def _crowd(rng: np.random.Generator, count: int) -> Scene:
 
 
 @pytest.mark.parametrize("planes", [1, 3, 17])
-def test_the_compiled_parameters_among_many_pieces_are_numpys(planes, jit_cache):
+def test_the_compiled_parameters_among_many_pieces_are_numpys(planes, shared_jit_cache):
     """In a crowd of pieces (most of them out of the lines' reach or farther than the nearest few, which the C
     does not measure) the compiled lines are NumPy's to the last bit: bodies over pieces, touching them and
     between them, anchored or not, keeping the warm start's lines or not; 17 planes measure every piece."""
     rng = np.random.default_rng(17 + planes)
-    assert obstacles_module._kernel(True, str(jit_cache[0])) is not None
+    assert obstacles_module._kernel(True, str(shared_jit_cache[0])) is not None
     drawn = 0
     for _ in range(6):
         lines = ClearanceConstraints(VEHICLE, planes)
@@ -183,7 +183,7 @@ def test_the_compiled_parameters_among_many_pieces_are_numpys(planes, jit_cache)
     assert drawn > 300 * planes  # lines drawn, not only unused slots
 
 
-def test_pieces_at_the_same_distance_keep_their_order(jit_cache):
+def test_pieces_at_the_same_distance_keep_their_order(shared_jit_cache):
     """A body that overlaps two pieces is at distance 0 from both: the lines come in the pieces' order, compiled or
     not, on any machine (a stable sort; NumPy's default one orders ties as its build and processor do)."""
     left = Obstacle("left", _box(4.0, 0.5, 0.0, 2.0, 1.0))

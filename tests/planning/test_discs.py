@@ -29,10 +29,10 @@ def _samples(rng: np.random.Generator, n: int, k: int) -> np.ndarray:
 
 
 @pytest.mark.parametrize("tolerance", [0.0, 0.1, 0.3])
-def test_the_compiled_check_is_numpys_bit_for_bit(jit_cache, place, tolerance):
+def test_the_compiled_check_is_numpys_bit_for_bit(shared_jit_cache, place, tolerance):
     """Both least values of every motion, with and without a length tolerance, off the grid and not a number."""
     scenario, grid = place
-    assert discs_module._kernel(True, str(jit_cache[0])) is not None  # the compiled code, not NumPy again
+    assert discs_module._kernel(True, str(shared_jit_cache[0])) is not None  # the compiled code, not NumPy again
     discs = Discs(replace(scenario.vehicle, length_tolerance=tolerance))
     rng = np.random.default_rng(7)
     for trial in range(30):
@@ -48,7 +48,7 @@ def test_the_compiled_check_is_numpys_bit_for_bit(jit_cache, place, tolerance):
     assert lost[0][0] == -math.inf and lost[1][0] == -math.inf
 
 
-def test_a_look_that_stops_early_gives_the_same_answers(jit_cache, place):
+def test_a_look_that_stops_early_gives_the_same_answers(shared_jit_cache, place):
     """With ``stop = c``, clear by c and surely nearer than c come out as from every point."""
     scenario, grid = place
     discs = Discs(replace(scenario.vehicle, length_tolerance=0.1))
@@ -64,7 +64,7 @@ def test_a_look_that_stops_early_gives_the_same_answers(jit_cache, place):
     assert stopped_early > 0  # the early stop was taken (else this test checks nothing)
 
 
-def test_the_screen_answers_as_numpy_does(jit_cache, place, monkeypatch):
+def test_the_screen_answers_as_numpy_does(shared_jit_cache, place, monkeypatch):
     """The planner's questions (fast, triage, blocked) get the same answers with the compiled check and without."""
     scenario, grid = place
     rng = np.random.default_rng(9)
@@ -92,7 +92,7 @@ def test_where_the_compiler_refuses_the_check_is_numpys(jit_cache, place, monkey
     assert all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
 
 
-def test_groups_shown_clear_at_their_centre_are_passed_over_with_the_same_answers(jit_cache, place):
+def test_groups_shown_clear_at_their_centre_are_passed_over_with_the_same_answers(shared_jit_cache, place):
     """Short motions about the goal of a narrow driveway, some near its walls, some clear: the compiled check
     passes over groups of points the grid shows clear (its sure value then above NumPy's least) and answers as
     NumPy's every point does, for clearances from touching to a metre."""

@@ -57,24 +57,23 @@ def _assert_kkt_point(kkt, problem, answer, tol=1e-6):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("ocp", ["paper", "full", "obstacles"])
-def test_riccati_reaches_ipopts_optimum_from_cold_and_warm_starts(shared_jit_cache, request, ocp):
+def test_riccati_reaches_ipopts_optimum_from_cold_and_warm_starts(shared_jit_cache, request, ocp, ipopt_answers):
     controller, problems = request.getfixturevalue(f"{'obstacle' if ocp == 'obstacles' else ocp}_problems")
     tr = controller.transcription
     solver = _riccati(controller)
     assert isinstance(solver, GeneratedNLP) and solver.warm_duals
-    ipopt = make_solver("ipopt", tr.nlp, list(tr.lbg == tr.ubg))
+    references = ipopt_answers(ocp, controller, problems)  # IPOPT's answers, solved once for every route's test
     kkt = _kkt(tr)
     assert len(problems) >= 10
     previous = None
-    for problem in problems:
-        reference = ipopt(**problem.inputs())
-        first_ref = tr.unpack(np.asarray(reference["x"]).ravel(), problem.p)[1][0]
+    for problem, (_, x_ref, f_ref) in zip(problems, references, strict=True):
+        first_ref = tr.unpack(x_ref, problem.p)[1][0]
         # Cold, then from the multipliers of the problem before (the suite records none: fatrop in-process).
         starts = [{}] if previous is None else [{}, {"lam_x0": previous["lam_x"], "lam_g0": previous["lam_g"]}]
         for start in starts:
             answer = solver(**problem.inputs(), **start)
             assert solver.stats()["success"], f"riccati_c failed on a recorded {ocp} problem ({sorted(start)})"
-            assert answer["f"] == pytest.approx(float(reference["f"]), rel=1e-5, abs=1e-9)
+            assert answer["f"] == pytest.approx(f_ref, rel=1e-5, abs=1e-9)
             first = tr.unpack(np.asarray(answer["x"]).ravel(), problem.p)[1][0]  # the move the car is given
             np.testing.assert_allclose(first, first_ref, atol=2e-4)
             _assert_kkt_point(kkt, problem, answer)
@@ -293,13 +292,32 @@ def test_riccati_steps_as_ipopt_at_any_horizon(shared_jit_cache, horizon):
 def test_riccati_from_a_cold_start_at_a_long_horizon(shared_jit_cache):
     """A closed loop's first problem, with no multipliers to start from, at N = 80 (the full OCP): the barrier
     parameter comes down from IPOPT's start rather than beginning at its last value (which stalled here)."""
-    from hitchpark.app.bench import BENCH_OCPS, own_problems, record_problems
+    from hitchpark.app.bench import BENCH_OCPS, own_problems
+    from hitchpark.maneuver import park
 
-    ocp = BENCH_OCPS["full"]
+    class First(list):
+        """A recorder that ends the closed loop at its first problem: the first of ``record_problems``' recording
+        of the whole loop (the same controller and park, to the bit), without the rest of the loop, which is never
+        used (all of its problems are of this OCP)."""
+
+        def append(self, problem):
+            super().append(problem)
+            raise Recorded
+
+    class Recorded(Exception):
+        pass
+
+    ocp, vehicle = BENCH_OCPS["full"], VehicleTrailer()
+    (start,) = ocp.starts(1)
+    settings = ocp.settings(80)  # as record_problems(ocp, vehicle, ocp.starts(1), horizon=80) records
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("HITCHPARK_JIT", "0")  # recorded as the suite's other problems are
-        controller, problems = record_problems(ocp, VehicleTrailer(), ocp.starts(1), horizon=80)
-    first = own_problems(controller, problems)[0]
+        controller = make_nmpc(vehicle, settings.nmpc)
+        controller.recorder = First()
+        with pytest.raises(Recorded):
+            park(vehicle, start.start, start.goal, settings, name=start.name, controller=controller, plant=ocp.plant,
+                 scene=start.scene)  # fmt: skip
+    (first,) = own_problems(controller, controller.recorder)
     tr = controller.transcription
     solver, ipopt = _riccati(controller), make_solver("ipopt", tr.nlp, list(tr.lbg == tr.ubg))
     reference = ipopt(**first.inputs())

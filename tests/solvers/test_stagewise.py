@@ -4,6 +4,7 @@ where its code has the expected hooks."""
 
 from __future__ import annotations
 
+import functools
 from dataclasses import replace
 
 import casadi as ca
@@ -28,10 +29,18 @@ def _transcription(kind: str, horizon: int):
     clear of the campsite's trees (rows on every X_k)."""
     if kind == "paper":
         return make_nmpc(VehicleTrailer(), NMPCSettings(kind="paper", horizon=horizon)).transcription
+    return _keeping_clear(horizon)._program_for(kind == "tracking", lines=kind == "obstacles").transcription
+
+
+@functools.cache
+def _keeping_clear(horizon: int):
+    """The full model's NMPC keeping clear of the campsite's trees, which builds every OCP of the full kind at once
+    (:meth:`FullNMPC.keep_clear`): one for the parking, tracking and obstacle OCPs of each horizon, whose tests read
+    their transcriptions and change nothing in them."""
     sc = builtin_scenario("campsite")
     controller = make_nmpc(sc.vehicle, replace(sc.settings.nmpc, kind="full", horizon=horizon))
     controller.keep_clear(sc.scene, 0.2)
-    return controller._program_for(kind == "tracking", lines=kind == "obstacles").transcription
+    return controller
 
 
 @pytest.mark.parametrize("kind", ["paper", "full", "tracking", "obstacles"])

@@ -63,11 +63,11 @@ def test_shifted_multipliers_move_each_stage_on_by_a_step_and_hold_the_last():
 
 @pytest.mark.slow
 def test_fatrop_started_from_its_own_optimum_and_multipliers_ends_there_in_fewer_iterations(
-    shared_jit_cache, monkeypatch
+    shared_jit_cache, full_recorded
 ):
-    monkeypatch.setenv("HITCHPARK_JIT", "0")  # the problems are recorded uncompiled (they need no multipliers) ...
-    controller, problems, _ = _recorded("full", 2)
-    monkeypatch.setenv("HITCHPARK_JIT", "1")  # ... and the solver under test is compiled
+    # The problems recorded uncompiled (they need no multipliers), as the solver tests' (tests/solvers/conftest.py),
+    # and the solver under test compiled.
+    controller, problems = full_recorded
     tr = controller.transcription
     solver = make_solver("fatrop_c", tr.nlp, list(tr.lbg == tr.ubg), transcription=tr)
     assert isinstance(solver, GeneratedNLP) and solver.warm_duals and takes_duals(solver)
