@@ -415,30 +415,10 @@ def test_a_plant_with_a_compiled_step_pickles_and_steps_the_same(shared_jit_cach
 
 
 @pytest.mark.slow
-def test_compiling_the_planners_rollouts_changes_nothing(jit_cache):
-    """On a cold cache the planner's batch functions compile (seconds) before its safety net's clock starts:
-    the first plan is the plan a warm cache gives."""
-    from hitchpark import native
-    from hitchpark.model.state import State
-    from hitchpark.planning import PlannerSettings, plan
-
-    cache, _ = jit_cache
-    assert not cache.exists()
-    native._native.cache_clear()  # as in a fresh process: functions another test loaded are loaded again
-    settings = PlannerSettings()
-    start = State(12.0, 2.0, math.radians(10.0), 0.0)
-    cold = plan(VehicleTrailer(), start, settings=settings)
-    assert any(cache.iterdir()), "the rollouts were compiled"
-    warm = plan(VehicleTrailer(), start, settings=settings)
-    assert cold.status == warm.status == "found"
-    for column, values in warm.path.items():
-        np.testing.assert_array_equal(cold.path[column], values, err_msg=column)
-
-
-@pytest.mark.slow
 def test_nothing_compiles_once_the_planners_clock_runs_among_obstacles(jit_cache, monkeypatch):
-    """The end-game's pursuits compile too, one library per size of reference: before the safety net's clock
-    starts, with the rollouts. The search's budget is a count, so a cold cache finds the warm cache's path."""
+    """On a cold cache the planner's functions compile (seconds): its batch rollouts, and the end-game's pursuits,
+    one library per size of reference, all before the safety net's clock starts. The search's budget is a count, so
+    a cold cache finds the warm cache's path, to the bit."""
     from hitchpark import native
     from hitchpark.planning import plan, planner
 
@@ -461,6 +441,7 @@ def test_nothing_compiles_once_the_planners_clock_runs_among_obstacles(jit_cache
 
     monkeypatch.setattr(planner, "prepare", prepare)
     monkeypatch.setattr(native, "cached_library", cached)
+    assert not jit_cache[0].exists()
     native._native.cache_clear()  # as in a fresh process: functions another test loaded are loaded again
     scenario = builtin_scenario("driveway")
     margin = scenario.settings.success.min_clearance_m + scenario.settings.process.plan_margin_m
