@@ -28,7 +28,7 @@ from hitchpark.model.plant import Command, Measurement
 from hitchpark.model.scene import Obstacle, Scene
 from hitchpark.model.state import Pose, State
 from hitchpark.ocp.reference import PathReference
-from hitchpark.solvers.riccati import RICCATI_SOURCE
+from hitchpark.solvers.riccati import riccati_source
 
 
 def test_the_package_holds_its_files_and_a_manifest_of_them(random_files):
@@ -39,7 +39,7 @@ def test_the_package_holds_its_files_and_a_manifest_of_them(random_files):
     for name, digest in manifest["sha256"].items():
         assert hashlib.sha256(random_files[name].encode()).hexdigest() == digest
     # the solver is the in-process route's own file, byte for byte
-    assert random_files["src/riccati_ipm.inc"] == RICCATI_SOURCE.read_text(encoding="utf-8")
+    assert random_files["src/riccati_ipm.inc"] == riccati_source()
     assert (
         f"#define HITCHPARK_NMPC_WORKSPACE_BYTES {manifest['workspace_bytes']}"
         in random_files["include/hitchpark_nmpc.h"]

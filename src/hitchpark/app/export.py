@@ -1,7 +1,7 @@
 """``hitchpark export``: the full-model NMPC as a self-contained C99 package for an embedded target.
 
 The package is the controller of one vehicle and one set of NMPC settings: hitchpark's own solver
-(:data:`~hitchpark.solvers.riccati.RICCATI_SOURCE`, copied as it is: the very C of the in-process route), the
+(:func:`~hitchpark.solvers.riccati.riccati_source`, copied as it is: the very C of the in-process route), the
 stage functions CasADi writes for each of its OCPs (:data:`OCPS`: parking at the goal, and tracking a planned
 path to it), and the controller's tick around the solve (``package/hitchpark_nmpc.c``: the measurement into the
 goal's frame, the commands in flight predicted out, the path's reference; ``package/hitchpark_nmpc_ocp.inc``,
@@ -36,7 +36,7 @@ from ..ocp.obstacles import CLEARANCE_LINES_SOURCE, ClearanceConstraints, vehicl
 from ..ocp.separating import SEPARATING_LINES_SOURCE
 from ..ocp.settings import NMPCSettings
 from ..solvers.casadi_patches import mark_unused_arguments
-from ..solvers.riccati import RICCATI_SOURCE, riccati_standalone
+from ..solvers.riccati import riccati_source, riccati_standalone
 from ..solvers.transcription import make_transcription
 from .export_memory import block_bound, workspace_bound
 
@@ -65,6 +65,8 @@ GEOMETRY_FILES = {"src/geometry/clearance_lines.c": CLEARANCE_LINES_SOURCE, "src
 PACKAGE_FILES = (
     "include/hitchpark_nmpc.h",
     "src/hitchpark_nmpc.c",
+    "src/hitchpark_nmpc_path.inc",
+    "src/hitchpark_nmpc_scene.inc",
     "src/hitchpark_nmpc_config.h",
     "src/hitchpark_nmpc_internal.h",
     "src/hitchpark_nmpc_model.c",
@@ -286,12 +288,14 @@ def package_files(spec: ExportSpec) -> dict[str, str]:
         {
             "include/hitchpark_nmpc.h": header,
             "src/hitchpark_nmpc.c": _template("hitchpark_nmpc.c"),
+            "src/hitchpark_nmpc_path.inc": _template("hitchpark_nmpc_path.inc"),
+            "src/hitchpark_nmpc_scene.inc": _template("hitchpark_nmpc_scene.inc"),
             "src/hitchpark_nmpc_config.h": config,
             "src/hitchpark_nmpc_internal.h": _template("hitchpark_nmpc_internal.h"),
             "src/hitchpark_nmpc_ocp.inc": _template("hitchpark_nmpc_ocp.inc"),
             "src/hitchpark_nmpc_model.c": '#include "hitchpark_nmpc_config.h"\n'
             + mark_unused_arguments(generator.dump()),
-            "src/riccati_ipm.inc": RICCATI_SOURCE.read_text(encoding="utf-8"),
+            "src/riccati_ipm.inc": riccati_source(),
             **(_geometry_files() if spec.obstacles else {}),
             **_example_files(spec),
             "cmake/arm-linux-gnueabihf.cmake": _template("arm-linux-gnueabihf.cmake"),

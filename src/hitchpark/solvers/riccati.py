@@ -25,10 +25,25 @@ from .casadi_patches import mark_unused_arguments
 from .generated import GeneratedNLP
 from .transcription import MultipleShooting, first_step_weight
 
-__all__ = ["RICCATI_SOURCE", "checked_options", "riccati_functions", "riccati_nlpsol", "riccati_standalone"]
+__all__ = [
+    "RICCATI_SOURCES",
+    "checked_options",
+    "riccati_functions",
+    "riccati_nlpsol",
+    "riccati_source",
+    "riccati_standalone",
+]
 
-#: The solver's C (the method, at its top).
-RICCATI_SOURCE = Path(__file__).with_name("riccati_ipm.c")
+#: The solver's C, one unit in four files in this order (the method described at the top of the first).
+RICCATI_SOURCES = tuple(
+    Path(__file__).with_name(name)
+    for name in ("riccati_ipm.c", "riccati_ipm_newton.inc", "riccati_ipm_search.inc", "riccati_ipm_solve.inc")
+)
+
+
+def riccati_source() -> str:
+    """The solver's C: :data:`RICCATI_SOURCES` joined, as the in-process route compiles it and the package holds it."""
+    return "".join(path.read_text(encoding="utf-8") for path in RICCATI_SOURCES)
 
 #: The solver's options and their defaults: tolerance of the scaled optimality error, the barrier parameter
 #: (fixed), the iteration limit, the least slack of a constraint at the start (the warm start's own
@@ -125,7 +140,7 @@ CASADI_SYMBOL_EXPORT int {name}_frees_initial(void) {{ return 1; }}
 
 
 def _config(transcription: Any, functions: Mapping[str, ca.Function], options: Mapping[str, Any]) -> str:
-    """The C definitions :data:`RICCATI_SOURCE` is written against."""
+    """The C definitions :func:`riccati_source` is written against."""
     pr = transcription.problem
     n_rows = int(functions["HP_EVK"].size1_out(2))
     work = {
@@ -191,7 +206,7 @@ def riccati_nlpsol(
     functions = riccati_functions(transcription, f"{name}_")
     if compiler is None or functions is None:
         return None
-    solver_c = RICCATI_SOURCE.read_text()
+    solver_c = riccati_source()
     text = _config(transcription, functions, settings) + solver_c + _EXPORTS.format(name=name)
     nlp = transcription.nlp
 
@@ -212,7 +227,7 @@ def riccati_standalone(
     options: Mapping[str, Any] | None = None,
     extra: Mapping[str, ca.Function] | None = None,
 ) -> tuple[str, str] | None:
-    """The solver's C for a build of its own (``hitchpark export``): the definitions :data:`RICCATI_SOURCE` is
+    """The solver's C for a build of its own (``hitchpark export``): the definitions :func:`riccati_source` is
     written against (``#define`` lines, sized for ``extra`` too: more functions the caller's C calls with the
     solver's work arrays, keyed by the macro that names them) and one C file of the stage functions and
     ``extra``, as CasADi writes them, each function's unused arguments marked used (it then compiles without
