@@ -17,12 +17,13 @@ from test_cli import one_error_line, run
 from test_sim import EXPECTED_COLUMNS
 
 # The columns the issue names: those of `simulate` (front_steer and rear_speed the actual values), the commands
-# issued and the hitch angle the controller saw, plus the controller's.
+# issued and the hitch angle the controller saw (and its doubt), plus the controller's.
 TRAJECTORY_COLUMNS = {
     *EXPECTED_COLUMNS,
     "front_steer_cmd",
     "rear_speed_cmd",
     "hitch_measured",
+    "hitch_doubt",
     "stage",
     "trailer_speed",
     "virtual_steer",

@@ -188,6 +188,16 @@ def test_an_old_file_reads_as_the_ideal_plant(parallel: ManeuverResult, figure_o
     np.testing.assert_allclose(only(panels["front_steer"], "commanded"), only(panels["front_steer"], "actual"))
 
 
+def test_a_file_saved_before_the_estimates_doubt_reads_with_none(actuated: ManeuverResult) -> None:
+    """A maneuver.json without ``hitch_doubt`` (written before the estimator had a doubt): the hitch the controllers
+    saw as saved, and a doubt of 0 on every row (the readings were taken as they came)."""
+    data = actuated.to_dict()
+    del data["trajectory"]["hitch_doubt"]
+    old = ManeuverResult.from_dict(data)
+    np.testing.assert_array_equal(old.trajectory["hitch_measured"], actuated.trajectory["hitch_measured"])
+    assert len(old.trajectory["hitch_doubt"]) == len(old.trajectory) and not np.any(old.trajectory["hitch_doubt"])
+
+
 def test_each_new_curve_needs_its_own_column(actuated: ManeuverResult, figure_of) -> None:
     columns = {k: v for k, v in actuated.trajectory.columns.items() if k != "hitch_measured"}
     panels = figure_of(dataclasses.replace(actuated, trajectory=Trajectory(columns)))

@@ -119,6 +119,7 @@ class ClosedLoop:
         row["rear_speed_cmd"].append(command.rear_speed)
         row["front_steer_cmd"].append(command.front_steer)
         row["hitch_measured"].append(measurement.state.hitch)
+        row["hitch_doubt"].append(measurement.doubt[3])
         row["stage"].append(stage)
         if why is not None and why.command == command:  # the controller's own view: U_0, or Eqs. (18), (56)
             row["trailer_speed"].append(why.trailer_speed)
@@ -178,6 +179,7 @@ class ClosedLoop:
             ("rear_speed_cmd", 0.0),
             ("front_steer_cmd", self.last.front_steer),
             ("hitch_measured", m.state.hitch),
+            ("hitch_doubt", m.doubt[3]),
             ("stage", stage),
             ("trailer_speed", 0.0),
             ("virtual_steer", float(virtual_steer_from_front(vehicle, before[3], self.plant.front_steer))),

@@ -50,12 +50,14 @@ __all__ = [
 ]
 
 #: Trajectory columns of a maneuver: those of ``simulate`` (``front_steer`` and ``rear_speed`` the actual
-#: values at t_k), the commands issued at t_k, the hitch angle the controller saw, and the controller's own.
+#: values at t_k), the commands issued at t_k, the hitch angle the controller saw and how far it may be from the
+#: truth (``Measurement.doubt``: 0 for a reading taken as it comes), and the controller's own.
 MANEUVER_COLUMNS = (
     *BASE_COLUMNS,
     "front_steer_cmd",
     "rear_speed_cmd",
     "hitch_measured",
+    "hitch_doubt",
     "stage",
     "trailer_speed",
     "virtual_steer",
@@ -71,7 +73,7 @@ ASSIST_COLUMNS = ("knob", "speed_request", "override", "curvature_asked", "curva
 
 #: Columns that are numbers on every row; the others are missing (None in JSON) where they do not apply
 #: (no solve on a forward step, say).
-FINITE_COLUMNS = (*BASE_COLUMNS, "front_steer_cmd", "rear_speed_cmd", "hitch_measured", "stage")
+FINITE_COLUMNS = (*BASE_COLUMNS, "front_steer_cmd", "rear_speed_cmd", "hitch_measured", "hitch_doubt", "stage")
 
 #: Keys of ``maneuver.json``: those read back, those written for readers only (derived from the rest).
 _SAVED_KEYS = (
@@ -271,12 +273,17 @@ class ManeuverResult:
     def _check_layout(self) -> None:
         """Stages must tile the trajectory: contiguous rows from 0 to the last, every column present."""
         missing = [c for c in MANEUVER_COLUMNS if c not in self.trajectory]
-        if missing and set(missing) <= {"front_steer_cmd", "rear_speed_cmd", "hitch_measured"}:
-            # Saved before the plant was a car of its own: the ideal plant, commands acted at once.
+        if missing and set(missing) <= {"front_steer_cmd", "rear_speed_cmd", "hitch_measured", "hitch_doubt"}:
+            # Saved before the estimator had a doubt (no hitch_doubt: the hitch was taken as read), or before the
+            # plant was a car of its own (the ideal plant, commands acted at once).
             cols = dict(self.trajectory.columns)
-            cols.update(
-                front_steer_cmd=cols["front_steer"], rear_speed_cmd=cols["rear_speed"], hitch_measured=cols["hitch"]
-            )
+            if "hitch_measured" in missing:
+                cols.update(
+                    front_steer_cmd=cols["front_steer"],
+                    rear_speed_cmd=cols["rear_speed"],
+                    hitch_measured=cols["hitch"],
+                )
+            cols.setdefault("hitch_doubt", np.zeros(len(cols["hitch"])))
             object.__setattr__(self, "trajectory", Trajectory({c: cols[c] for c in MANEUVER_COLUMNS}))
             missing = []
         if missing:

@@ -147,13 +147,16 @@ class Measurement:
     """What the controller sees: the sensed configuration and the actuators' actual state.
 
     ``state`` carries the sensor noise and bias; ``front_steer`` (the steering angle sensor)
-    and ``rear_speed`` (the wheel speeds) are exact.
+    and ``rear_speed`` (the wheel speeds) are exact. ``doubt`` is how far each of the configuration's x_t, y_t
+    [m], yaw_t and hitch [rad] may be from the truth (an estimator's bound,
+    :class:`~hitchpark.control.estimator.Estimator`); a reading as it comes is taken as exact (0).
     """
 
     t: float
     state: State
     front_steer: float
     rear_speed: float
+    doubt: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
 
 
 def _steer_profile(delta0: Any, target: Any, tau: Any, rate: Any, t: Any) -> Any:

@@ -45,6 +45,7 @@ def riccati_source() -> str:
     """The solver's C: :data:`RICCATI_SOURCES` joined, as the in-process route compiles it and the package holds it."""
     return "".join(path.read_text(encoding="utf-8") for path in RICCATI_SOURCES)
 
+
 #: The solver's options and their defaults: tolerance of the scaled optimality error, the barrier parameter
 #: (fixed), the iteration limit, the least slack of a constraint at the start (the warm start's own
 #: otherwise: where it is active, the slack starts this close to its bound), and whether each Newton step

@@ -149,6 +149,9 @@ def _hitch_panel(ax: Axes, result: ManeuverResult) -> None:
         measured = np.degrees(tr["hitch_measured"])
         seen = "estimated (filtered sensor)" if result.settings.estimator.filters else "measured (sensor)"
         ax.plot(t, measured, ls="none", marker=".", ms=3.0, alpha=0.45, color=_MEASURED, label=seen)
+        doubt = np.degrees(tr["hitch_doubt"]) if "hitch_doubt" in tr else np.zeros(len(t))
+        if np.any(doubt > 0.0):  # the estimator's doubt: where the truth may be, what the guard allows for
+            ax.fill_between(t, measured - doubt, measured + doubt, color=_MEASURED, alpha=0.15, lw=0, label="doubt")
         ax.plot(t, true, color=_ACTUAL, lw=1.4, label=r"true $\Delta\psi = \psi_1 - \psi_2$")
         error = measured - true
         error = error[np.isfinite(error)]

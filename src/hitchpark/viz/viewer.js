@@ -271,7 +271,7 @@
       ["steer / cmd", `${num(C.front_steer[k] * DEG, 1)}° / ${num(C.front_steer_cmd[k] * DEG, 1)}°`],
       ["steer rate", rate[k] === null ? "–" : num(rate[k] * DEG, 1) + "°/s"],
       ["speed / cmd", `${num(C.rear_speed[k])} / ${num(C.rear_speed_cmd[k])} m/s`],
-      ["hitch measured", num(C.hitch_measured[k] * DEG, 1) + "°"],
+      ["hitch measured", num(C.hitch_measured[k] * DEG, 1) + "°" + (C.hitch_doubt && C.hitch_doubt[k] > 0 ? ` ± ${num(C.hitch_doubt[k] * DEG, 1)}°` : "")],
       ["NMPC cost, solve", C.cost[k] === null ? "–" : `${num(C.cost[k], 3)}, ${num(C.solve_ms[k], 1)} ms`],
     ];
     if (D.clearance) {

@@ -47,6 +47,7 @@ _COLUMNS = {
     "yaw_trailer": ANGLE_DECIMALS,
     "hitch": ANGLE_DECIMALS,
     "hitch_measured": ANGLE_DECIMALS,
+    "hitch_doubt": ANGLE_DECIMALS,
     "x_rear": LENGTH_DECIMALS,
     "y_rear": LENGTH_DECIMALS,
     "yaw_vehicle": ANGLE_DECIMALS,
