@@ -132,3 +132,41 @@ def test_a_stage_that_begins_too_near_keeps_what_it_begins_with_less_the_margin(
     assert guard.begin(Measurement(0.0, beside_the_kerb(guard, 0.5), 0.0, 0.0)) == guard.need
     # Begun nearer than min_clearance_m: nothing below it.
     assert guard.begin(Measurement(0.0, beside_the_kerb(guard, -0.1), 0.0, 0.0)) == guard.floor
+
+
+def test_the_guard_allows_for_the_estimates_doubt():
+    """3 cm clear of the guard's clearance by the estimate, a straight rig along the kerb: without a doubt it goes on;
+    with 1 deg of doubt in the hitch the car's front corner may be nearer, and the guard stops it. The clearance it
+    keeps is the least of the hitch as estimated and moved by its doubt either side."""
+    guard = Guard(V, KERB, 0.2, 0.03, 0.1, 1)
+    state = beside_the_kerb(guard, 0.03)
+    sure = Measurement(0.0, state, 0.0, -0.3)
+    doubtful = replace(sure, doubt=(0.0, 0.0, 0.0, np.radians(1.0)))
+    assert guard.check(sure, Pose(), step(-0.3)).ok
+    stopped = guard.check(doubtful, Pose(), step(-0.3))
+    assert not stopped.ok and stopped.rear_speed == 0.0 and "too close" in stopped.status
+    x = np.array([[state.x, state.y, state.yaw, state.hitch + d] for d in np.radians([-1.0, 0.0, 1.0])])
+    estimated, least = guard.clearances(x[1:2])
+    assert estimated[0] == guard.checker.clearances(x[1:2])[0]
+    assert least[0] == guard.checker.clearances(x).min() < guard.need < estimated[0]
+
+
+def test_a_stage_that_begins_doubtful_may_move_away_not_nearer():
+    """Begun where the doubt puts a body below min_clearance_m (the estimate itself clear of it), the stage keeps what
+    its doubtful clearance begins with less the margin: along the kerb it moves, towards it it does not; an estimate
+    below min_clearance_m stops it whatever the doubt."""
+    guard = Guard(V, KERB, 0.2, 0.03, 0.1, 1)
+    doubt = (0.0, 0.0, 0.0, np.radians(2.0))
+    start = beside_the_kerb(guard, 0.0)
+    m = Measurement(0.0, start, 0.0, 0.0, doubt)
+    kept = guard.begin(m)  # (the guard checks with the doubt of the measurement it saw last)
+    now = float(guard.clearances(np.array([[start.x, start.y, start.yaw, start.hitch]]))[1][0])
+    assert now < guard.floor  # the doubt puts the car's front corner below the floor
+    assert kept == pytest.approx(now - ESCAPE_MARGIN_M)
+    along = np.array([[start.x + d, start.y, 0.0, 0.0] for d in (0.0, -0.1, -0.2)])
+    assert guard.check(m, Pose(), step(-0.3, along)).ok
+    nearer = along + np.array([0.0, ESCAPE_MARGIN_M + 0.005, 0.0, 0.0])
+    assert not guard.check(m, Pose(), step(-0.3, nearer)).ok
+    below = State(start.x, start.y + guard.need - guard.floor + 0.005, 0.0, 0.0)  # the estimate 0.5 cm inside
+    guard.begin(Measurement(0.0, below, 0.0, 0.0, doubt))
+    assert not guard.check(Measurement(0.0, below, 0.0, 0.0, doubt), Pose(), step(-0.3)).ok

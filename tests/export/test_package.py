@@ -131,6 +131,9 @@ def test_bad_input_gives_its_error_code_and_a_stop_and_leaves_the_workspace_soun
     junk = (ctypes.c_double * 8)()
     assert lib.hitchpark_nmpc_step(junk, good, _Pose(), None, 0, out, ctypes.byref(status)) == 2
     assert lib.hitchpark_nmpc_init(junk, 8) is None  # too small
+    for clearance, code in ((math.nan, 9), (-0.1, 9), (0.3, 0)):  # a held clearance: finite and not negative
+        assert lib.hitchpark_nmpc_hold_clearance(nmpc._handle, clearance) == code
+    assert lib.hitchpark_nmpc_hold_clearance(junk, 0.3) == 2
     # the workspace is sound: after a reset, the same answer as a fresh controller's
     lib.hitchpark_nmpc_reset(nmpc._handle, 0.05)
     fresh, _ = _api(library)

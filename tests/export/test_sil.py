@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import subprocess
 from pathlib import Path
 
@@ -11,6 +12,7 @@ import pytest
 from hitchpark.app.exported import build_package, cached_package_library
 from hitchpark.app.sil import run_sil, sil_settings
 from hitchpark.checks import InputError
+from hitchpark.control.estimator import EstimatorSettings
 from hitchpark.maneuver.scenario import BUILTIN_ORDER, builtin_scenario
 from hitchpark.model.plant import load_plant
 from hitchpark.ocp.settings import NMPCSettings
@@ -76,8 +78,13 @@ def test_sil_equals_in_process_tracking_the_planners_path(plant, library, compil
 def test_sil_equals_in_process_among_obstacles(name, plant, library, compiled_in_process):
     """The obstacle OCP in C (the scene's lines drawn by clearance_lines.c, the cold start's plan without lines and
     its rounds) tracking the planner's path among the scene, to the bit: the driveway on its own plant, the curb on
-    the fault plant (a delay, hitch noise, the lengths 10% longer)."""
-    report = run_sil(builtin_scenario(name), plant=plant and load_plant(plant), library=library, ipopt=False)
+    the fault plant (a delay, hitch noise, the lengths 10% longer) with the controller told the sensor's noise, so
+    that its estimate has a doubt and the NMPC's clearance is held each tick (hitchpark_nmpc_hold_clearance)."""
+    scenario = builtin_scenario(name)
+    if plant is not None:
+        told = dataclasses.replace(scenario.settings, estimator=EstimatorSettings(hitch_noise_std_deg=0.5))
+        scenario = dataclasses.replace(scenario, settings=told)
+    report = run_sil(scenario, plant=plant and load_plant(plant), library=library, ipopt=False)
     report = report.to_dict()
     assert report["paths_followed"] >= 1 and report["exported"]["outcome"] == "parked"
     assert report["same_outcome"] and report["rows"]["exported"] == report["rows"]["in_process"]

@@ -11,12 +11,13 @@ import numpy as np
 import pytest
 
 from hitchpark.checks import InputError
+from hitchpark.control.guard import CLEARANCE_SPARE_M, Guard
 from hitchpark.control.nmpc import FullNMPC, make_nmpc
 from hitchpark.io import to_jsonable
 from hitchpark.maneuver import ManeuverResult, ManeuverSettings, ProcessSettings, park
 from hitchpark.maneuver.process import direction_segments_of
 from hitchpark.maneuver.result import StageResult
-from hitchpark.maneuver.stages import ReverseStage
+from hitchpark.maneuver.stages import GuardedStage, ReverseStage
 from hitchpark.model import VehicleTrailer
 from hitchpark.model.plant import Measurement
 from hitchpark.model.scene import Obstacle, Scene
@@ -219,3 +220,41 @@ def test_a_search_that_finds_nothing_records_and_draws_where_it_got_stuck():
     assert texts.count("search stuck here") >= len(stuck)
     with pytest.raises(InputError, match="4 numbers"):
         ManeuverResult.from_dict({**back.to_dict(), "plans": [{**back.plans[0].to_dict(), "closest": [1.0, 2.0]}]})
+
+
+def test_a_guarded_reverse_stage_keeps_the_doubts_share_of_the_clearance_in_its_predictions():
+    """The guard allows for the estimate's doubt; the NMPC's predictions (the estimate's clearance) then keep the
+    guard's clearance, the doubt's share at the measured configuration, and the spare, or the NMPC plans what the
+    guard stops. Without a doubt the stage keeps keep_clear's clearance, as before."""
+    side = Obstacle("wall", np.array([[-20.0, 3.0], [20.0, 3.0], [20.0, 4.0], [-20.0, 4.0]]))
+    back = Obstacle("back wall", np.array([[-9.0, -20.0], [-8.0, -20.0], [-8.0, 2.0], [-9.0, 2.0]]))
+    wall = Scene((side, back))
+    nmpc = FullNMPC(V, NMPCSettings(jit=False))
+    nmpc.keep_clear(wall, 0.24)
+    guard = Guard(V, wall, 0.2, 0.03, 0.1, 1)
+    stage = GuardedStage(ReverseStage(nmpc), guard)
+    sure = Measurement(0.0, State(6.0, 1.0, 0.0, 0.0), 0.0, 0.0)
+    stage.begin(sure, Pose())
+    assert nmpc.clearance_m == 0.24 and guard.doubt_gap(sure)[1] == 0.0
+    doubtful = Measurement(0.0, sure.state, 0.0, 0.0, (0.0, 0.0, 0.0, math.radians(1.0)))
+    stage.begin(doubtful, Pose())
+    now, gap = guard.doubt_gap(doubtful)
+    s = sure.state
+    estimated, least = guard.clearances(np.array([[s.x, s.y, s.yaw, s.hitch]]))
+    assert now == estimated[0] and gap == pytest.approx(estimated[0] - least[0]) and gap > 0.02  # cm at the corners
+    assert nmpc.clearance_m == pytest.approx(guard.stage_need + gap + CLEARANCE_SPARE_M)
+    step = stage.act(doubtful, Pose(), ())
+    assert step.ok and step.rear_speed < 0.0
+    # Where the trailer (whose pose is exact) is the body nearest the scene, the doubt takes nothing: the stage's own.
+    by_the_back = Measurement(0.1, State(-6.5, -2.0, 0.0, 0.0), 0.0, -0.1, doubtful.doubt)
+    assert guard.doubt_gap(by_the_back)[1] == 0.0
+    stage.act(by_the_back, Pose(), ())
+    assert nmpc.clearance_m == pytest.approx(guard.stage_need + CLEARANCE_SPARE_M)
+    # Begun with 0.21 m as doubted (the guard keeps min_clearance_m, 0.2): the share would ask all it has, and the
+    # stage keeps what it began with less the spare.
+    near = Measurement(0.0, State(6.0, 1.0 + now - (0.21 + gap), 0.0, 0.0), 0.0, 0.0, doubtful.doubt)
+    stage.begin(near, Pose())
+    began, share = guard.doubt_gap(near)
+    assert guard.stage_need == guard.floor and began - share == pytest.approx(0.21)
+    assert nmpc.clearance_m == pytest.approx(began - CLEARANCE_SPARE_M)
+    assert nmpc.clearance_m < guard.stage_need + share + CLEARANCE_SPARE_M

@@ -215,6 +215,7 @@ class ExportedNMPC(FullNMPC):
             ctypes.c_void_p, ctypes.POINTER(_REAL), ctypes.POINTER(ctypes.c_int), ctypes.c_int, _REAL,
         )  # fmt: skip
         lib.hitchpark_nmpc_ease_clearance.argtypes = (ctypes.c_void_p, _REAL)
+        lib.hitchpark_nmpc_hold_clearance.argtypes = (ctypes.c_void_p, _REAL)
         lib.hitchpark_nmpc_path_progress.argtypes = (ctypes.c_void_p, ctypes.POINTER(_REAL), ctypes.POINTER(_REAL))
         lib.hitchpark_nmpc_workspace_bound.restype = ctypes.c_size_t
         self.workspace_bytes = int(lib.hitchpark_nmpc_workspace_size())
@@ -292,6 +293,11 @@ class ExportedNMPC(FullNMPC):
     def ease_clearance(self, clearance_m: float) -> None:
         self._lib.hitchpark_nmpc_ease_clearance(self._handle, float(clearance_m))
         self._clearance_m = min(self._base_clearance_m, float(clearance_m))
+
+    def hold_clearance(self, clearance_m: float) -> None:
+        check_range("clearance_m", clearance_m, 0.0, 10.0, unit="m")
+        self._lib.hitchpark_nmpc_hold_clearance(self._handle, float(clearance_m))
+        self._clearance_m = float(clearance_m)
 
     @staticmethod
     def _inputs(measurement: Measurement, goal: Pose) -> tuple[_Measurement, _Pose]:

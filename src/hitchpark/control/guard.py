@@ -23,6 +23,15 @@ overshoot, a noisy reading) would be stopped at its first command, and the car c
 begins just clear of it, at its first wobble. Such a stage (less than :data:`ESCAPE_MARGIN_M` clear of that)
 keeps what it begins with less :data:`ESCAPE_MARGIN_M`, never less than ``min_clearance_m``. Its plan keeps
 about as much (the planner's start slack), so the car moves away along it.
+
+The configuration the guard checks is an estimate (:class:`~hitchpark.control.estimator.Estimator`), and the
+truth may be as far from it as the estimate's doubt (``Measurement.doubt``: the sensors' noise, the model's
+lengths). So each configuration, measured or predicted, is checked also with each doubtful component moved by
+its doubt either side, and the least of these is the clearance the rules above keep: a hitch 1 deg off moves the
+car's front corners 8-9 cm. The estimate itself still keeps ``min_clearance_m``, and a stage that begins with
+its doubtful clearance below that (after a stop's overshoot, or the doubt grown while it stood) keeps what it
+begins with less :data:`ESCAPE_MARGIN_M`: the car may move away, not nearer. With exact readings (no estimator,
+the default) the doubt is 0 and the rules are as above.
 """
 
 from __future__ import annotations
@@ -82,14 +91,40 @@ class Guard:
         self.stage_need = self.need  # what the stage under way keeps (:meth:`begin`)
         self.checker = SceneChecker(vehicle, scene)
         self.least = math.inf  # least clearance seen, for the record
+        self.doubt = np.zeros(4)  # the last measurement's (x_t, y_t, yaw_t, hitch)
+
+    def clearances(self, configs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each configuration's (rows x_t, y_t, yaw_t, hitch) clearance [m], and the least of it and of it with each
+        component moved by the last measurement's doubt either side (the module text)."""
+        configs = np.asarray(configs, dtype=float)
+        moved = [configs]
+        for i in np.flatnonzero(self.doubt):
+            for sign in (-1.0, 1.0):
+                shifted = configs.copy()
+                shifted[:, i] += sign * self.doubt[i]
+                moved.append(shifted)
+        clear = self.checker.clearances(np.vstack(moved)).reshape(len(moved), len(configs))
+        return clear[0], clear.min(axis=0)
+
+    def doubt_gap(self, measurement: Measurement) -> tuple[float, float]:
+        """The measured configuration's clearance as estimated [m], and how much less it is with its doubt allowed
+        for (0 without a doubt); from now on the guard checks with this measurement's doubt."""
+        self.doubt = np.asarray(measurement.doubt, dtype=float)
+        s = measurement.state
+        estimated, doubtful = self.clearances(np.array([[s.x, s.y, s.yaw, s.hitch]]))
+        return float(estimated[0]), float(estimated[0] - doubtful[0])
 
     def begin(self, measurement: Measurement) -> float:
         """A stage begins at ``measurement``: from here on it keeps the guard's clearance, or, when it begins less
         than :data:`ESCAPE_MARGIN_M` clearer than that, what it begins with less that margin (at least
-        ``min_clearance_m``). Returns what it keeps [m]."""
+        ``min_clearance_m``; a start whose doubtful clearance is below that, what it begins with less the margin).
+        Returns what the doubtful clearance keeps [m]."""
         s = measurement.state
-        now = float(self.checker.clearances(np.array([[s.x, s.y, s.yaw, s.hitch]]))[0])
+        self.doubt = np.asarray(measurement.doubt, dtype=float)
+        now = float(self.clearances(np.array([[s.x, s.y, s.yaw, s.hitch]]))[1][0])
         self.stage_need = max(self.floor, min(self.need, now - ESCAPE_MARGIN_M))
+        if now < self.floor and self.doubt.any():  # the estimate itself still keeps the floor (:meth:`check`)
+            self.stage_need = now - ESCAPE_MARGIN_M
         return self.stage_need
 
     def max_speed(self, room: float) -> float:
@@ -113,7 +148,7 @@ class Guard:
         for _ in range(n):  # RK4 over the rear axle's travel (unit speed), every steer at once
             x = rk4(lambda y: full_rhs(self.vehicle, y, inputs), x, ds, substeps=1)
             samples.append(x.T)
-        clear = self.checker.clearances(np.vstack(samples)).reshape(n, len(steers)).min(axis=1)
+        clear = self.clearances(np.vstack(samples))[1].reshape(n, len(steers)).min(axis=1)
         short = np.flatnonzero(clear < self.stage_need + BODY_SPEED_RATIO * ds / 2.0)
         return travel if not len(short) else float(short[0]) * ds
 
@@ -122,7 +157,8 @@ class Guard:
         return speed_for_travel(travel, 0.5 * self.vehicle.max_accel, (self.delay + 1) * self.dt)
 
     def clear(self, configs: np.ndarray) -> bool:
-        """Whether every configuration (rows x_t, y_t, yaw_t, hitch) keeps ``min_clearance_m + margin_m``."""
+        """Whether every configuration (rows x_t, y_t, yaw_t, hitch) of a plan keeps ``min_clearance_m +
+        margin_m`` (as planned: no measurement's doubt)."""
         return bool(np.all(self.checker.clearances(np.asarray(configs, dtype=float)) >= self.need))
 
     def check(self, measurement: Measurement, goal: Pose, step: ControlStep) -> ControlStep:
@@ -130,23 +166,26 @@ class Guard:
         if not step.ok or step.stop:
             return step
         s = measurement.state
+        self.doubt = np.asarray(measurement.doubt, dtype=float)
         configs = [np.array([s.x, s.y, s.yaw, s.hitch])]
         predicted = step.predicted_states
         if predicted.ndim == 2 and predicted.shape[0] > 1 and predicted.shape[1] >= 4:
             x, y, yaw = from_goal_frame(goal, predicted[1:, 0], predicted[1:, 1], predicted[1:, 2])
             configs.append(np.column_stack([x, y, yaw, predicted[1:, 3]]))
-        clearances = self.checker.clearances(np.vstack(configs))
-        now, ahead = float(clearances[0]), float(clearances.min())
-        self.least = min(self.least, now)
-        if ahead < self.stage_need:
-            return replace(
-                step,
-                rear_speed=0.0,
-                trailer_speed=0.0,
-                ok=False,
-                stop=True,
-                status=f"guard: too close to the scene: {ahead:.2f} m {'now' if now < self.stage_need else 'ahead'}",
-            )
+        estimated, doubtful = self.clearances(np.vstack(configs))
+        self.least = min(self.least, float(estimated[0]))
+        for clearance, keep in ((doubtful, self.stage_need), (estimated, self.floor)):
+            now, ahead = float(clearance[0]), float(clearance.min())
+            if ahead < keep:
+                return replace(
+                    step,
+                    rear_speed=0.0,
+                    trailer_speed=0.0,
+                    ok=False,
+                    stop=True,
+                    status=f"guard: too close to the scene: {ahead:.2f} m {'now' if now < keep else 'ahead'}",
+                )
+        now = float(doubtful[0])
         cap = self.max_speed(now - self.stage_need)
         if abs(step.rear_speed) <= cap:
             return step

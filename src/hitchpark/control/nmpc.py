@@ -159,6 +159,14 @@ class FullNMPC(RecedingHorizon):
         self._clearance_m = min(self._base_clearance_m, float(clearance_m))
         self._program = self._program_for(self._reference is not None)
 
+    def hold_clearance(self, clearance_m: float) -> None:
+        """From now on keep the bodies ``clearance_m`` from the scene, more than :meth:`keep_clear` asked or less:
+        for a stage whose guard allows for the estimate's doubt (:class:`~hitchpark.maneuver.stages.GuardedStage`),
+        what that allowance takes from the estimate's clearance on top of what the guard keeps."""
+        check_range("clearance_m", clearance_m, 0.0, 10.0, unit="m")
+        self._clearance_m = float(clearance_m)
+        self._program = self._program_for(self._reference is not None)
+
     def follow(self, reference: PathReference | None) -> None:
         """Track ``reference`` to the goal from now on (the tracking OCP); None: park at the goal."""
         if reference is not None:

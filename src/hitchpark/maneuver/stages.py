@@ -161,6 +161,7 @@ class GuardedStage:
     def __init__(self, stage: Stage, guard: Guard):
         self.stage, self.guard = stage, guard
         self.kind, self.controller = stage.kind, stage.controller
+        self.most = math.inf  # the most the NMPC's predictions may be asked to keep this stage [m] (:meth:`_hold`)
 
     @property
     def rate_limited(self) -> bool:
@@ -172,13 +173,34 @@ class GuardedStage:
 
     def begin(self, measurement: Measurement, goal: Pose) -> float | None:
         need = self.guard.begin(measurement)
-        if isinstance(self.stage, ReverseStage) and isinstance(self.stage.nmpc, FullNMPC):
+        nmpc = self._nmpc()
+        if nmpc is not None:
             # Its predictions keep what the guard keeps this stage, and the spare (keep_clear's, or less).
-            self.stage.nmpc.ease_clearance(need + CLEARANCE_SPARE_M)
+            nmpc.ease_clearance(need + CLEARANCE_SPARE_M)
+            if any(measurement.doubt):
+                self.most = self.guard.doubt_gap(measurement)[0] - CLEARANCE_SPARE_M
+                self._hold(nmpc, measurement)
         return self.stage.begin(measurement, goal)
 
     def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> ControlStep:
+        nmpc = self._nmpc()
+        if nmpc is not None and any(measurement.doubt):
+            self._hold(nmpc, measurement)
         return self.guard.check(measurement, goal, self.stage.act(measurement, goal, in_flight))
+
+    def _nmpc(self) -> FullNMPC | None:
+        """The full-model NMPC of a reverse stage (its predictions keep a clearance), else None."""
+        if isinstance(self.stage, ReverseStage) and isinstance(self.stage.nmpc, FullNMPC):
+            return self.stage.nmpc
+        return None
+
+    def _hold(self, nmpc: FullNMPC, measurement: Measurement) -> None:
+        """With a doubtful estimate, the NMPC's predictions (the estimate's clearance) keep the guard's clearance
+        plus what the doubt takes from it at the measured configuration, and the spare (else it plans what the
+        guard stops), but never more than the stage began with (:attr:`most`; else a stage begun near the scene has
+        no plan). Called only with a doubt: with exact readings nothing changes."""
+        gap = self.guard.doubt_gap(measurement)[1]
+        nmpc.hold_clearance(max(0.0, min(self.guard.stage_need + gap + CLEARANCE_SPARE_M, self.most)))
 
 
 @dataclass(frozen=True)

@@ -345,6 +345,15 @@ int hitchpark_nmpc_ease_clearance(hitchpark_nmpc* c, hitchpark_real clearance) {
   return 0;
 }
 
+int hitchpark_nmpc_hold_clearance(hitchpark_nmpc* c, hitchpark_real clearance) {
+  if (!hpc_valid(c)) return HITCHPARK_NMPC_E_WORKSPACE;
+  if (!isfinite(clearance) || clearance < 0) return HITCHPARK_NMPC_E_ARGUMENT;
+#if HPC_OBSTACLES
+  c->clearance = clearance;
+#endif
+  return 0;
+}
+
 int hitchpark_nmpc_path_progress(const hitchpark_nmpc* c, hitchpark_real* progress, hitchpark_real* deviation) {
   if (!hpc_valid(c)) return HITCHPARK_NMPC_E_WORKSPACE;
   if (progress) *progress = c->progress;

@@ -147,6 +147,11 @@ int hitchpark_nmpc_keep_clear(hitchpark_nmpc* nmpc, const hitchpark_real* vertic
  * for a stage that begins nearer than that. The controller is not reset. */
 int hitchpark_nmpc_ease_clearance(hitchpark_nmpc* nmpc, hitchpark_real clearance);
 
+/* From now on keep `clearance` [m] (>= 0), more than hitchpark_nmpc_keep_clear asked or less: for a stage whose
+ * guard allows for the estimate's doubt (the measurement is an estimate, and the truth may be nearer the scene), the
+ * guard's clearance plus what the doubt takes from it. The controller is not reset. */
+int hitchpark_nmpc_hold_clearance(hitchpark_nmpc* nmpc, hitchpark_real clearance);
+
 /* Tracking: the arc length [m] of the path's point nearest the trailer axle, and the axle's distance from it [m]
  * (to give up on a path strayed from). Either may be NULL. */
 int hitchpark_nmpc_path_progress(const hitchpark_nmpc* nmpc, hitchpark_real* progress, hitchpark_real* deviation);
