@@ -146,7 +146,7 @@ def test_the_guard_allows_for_the_estimates_doubt():
     stopped = guard.check(doubtful, Pose(), step(-0.3))
     assert not stopped.ok and stopped.rear_speed == 0.0 and "too close" in stopped.status
     x = np.array([[state.x, state.y, state.yaw, state.hitch + d] for d in np.radians([-1.0, 0.0, 1.0])])
-    estimated, least = guard.clearances(x[1:2])
+    estimated, least = guard.clearances(x[1:2], doubtful.doubt)
     assert estimated[0] == guard.checker.clearances(x[1:2])[0]
     assert least[0] == guard.checker.clearances(x).min() < guard.need < estimated[0]
 
@@ -159,8 +159,8 @@ def test_a_stage_that_begins_doubtful_may_move_away_not_nearer():
     doubt = (0.0, 0.0, 0.0, np.radians(2.0))
     start = beside_the_kerb(guard, 0.0)
     m = Measurement(0.0, start, 0.0, 0.0, doubt)
-    kept = guard.begin(m)  # (the guard checks with the doubt of the measurement it saw last)
-    now = float(guard.clearances(np.array([[start.x, start.y, start.yaw, start.hitch]]))[1][0])
+    kept = guard.begin(m)
+    now = float(guard.clearances(np.array([[start.x, start.y, start.yaw, start.hitch]]), doubt)[1][0])
     assert now < guard.floor  # the doubt puts the car's front corner below the floor
     assert kept == pytest.approx(now - ESCAPE_MARGIN_M)
     along = np.array([[start.x + d, start.y, 0.0, 0.0] for d in (0.0, -0.1, -0.2)])

@@ -240,7 +240,7 @@ def test_a_guarded_reverse_stage_keeps_the_doubts_share_of_the_clearance_in_its_
     stage.begin(doubtful, Pose())
     now, gap = guard.doubt_gap(doubtful)
     s = sure.state
-    estimated, least = guard.clearances(np.array([[s.x, s.y, s.yaw, s.hitch]]))
+    estimated, least = guard.clearances(np.array([[s.x, s.y, s.yaw, s.hitch]]), doubtful.doubt)
     assert now == estimated[0] and gap == pytest.approx(estimated[0] - least[0]) and gap > 0.02  # cm at the corners
     assert nmpc.clearance_m == pytest.approx(guard.stage_need + gap + CLEARANCE_SPARE_M)
     step = stage.act(doubtful, Pose(), ())

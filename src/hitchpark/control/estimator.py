@@ -142,9 +142,13 @@ class Estimator:
     ) -> np.ndarray:
         """How far the truth may be from the prediction ``ahead`` of ``x`` by the model's part alone: the farthest
         of the predictions from ``x`` moved by ``bias`` either side, by the model and by its lengths' ends."""
-        starts = np.column_stack([x + bias, x - bias]) if bias.any() else x[:, None]
-        columns = [self.predict(starts, inputs[:, None], dt, v) for v in (self.vehicle, *self.ends)]
-        gap = np.hstack(columns) - ahead[:, None]
+        if not bias.any():  # from x itself the model's own prediction is ``ahead``: only its lengths' ends differ
+            starts, models = x[:, None], self.ends
+        else:
+            starts, models = np.column_stack([x + bias, x - bias]), (self.vehicle, *self.ends)
+        if not models:
+            return np.zeros_like(x)
+        gap = np.hstack([self.predict(starts, inputs[:, None], dt, v) for v in models]) - ahead[:, None]
         gap[2:] = wrap_angle(gap[2:])
         return np.abs(gap).max(axis=1)
 

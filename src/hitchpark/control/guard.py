@@ -37,6 +37,7 @@ the default) the doubt is 0 and the rules are as above.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -50,7 +51,15 @@ from ..model.state import Pose, from_goal_frame
 from ..model.vehicle import VehicleTrailer
 from .step import ControlStep
 
-__all__ = ["BODY_SPEED_RATIO", "CLEARANCE_SPARE_M", "ESCAPE_MARGIN_M", "ROLLOUT_STEP_M", "Guard", "speed_for_travel"]
+__all__ = [
+    "BODY_SPEED_RATIO",
+    "CLEARANCE_SPARE_M",
+    "ESCAPE_MARGIN_M",
+    "NO_DOUBT",
+    "ROLLOUT_STEP_M",
+    "Guard",
+    "speed_for_travel",
+]
 
 #: How much faster than the rear axle a point of a body can move, at most, in a parking maneuver:
 #: the car's front corners sweep about 1.6 times the axle's speed at full lock (Table 4's lengths).
@@ -69,6 +78,9 @@ CLEARANCE_SPARE_M = 0.01
 #: A stage that begins nearer than the guard's clearance keeps what it begins with less this [m] (the planner's
 #: path from there keeps its start's clearance less 1 cm; this leaves the tracking another centimetre).
 ESCAPE_MARGIN_M = 0.02
+
+#: The doubt of a configuration taken as exact (x_t, y_t, yaw_t, hitch).
+NO_DOUBT = (0.0, 0.0, 0.0, 0.0)
 
 
 def speed_for_travel(travel: float, decel: float, lag: float) -> float:
@@ -91,27 +103,27 @@ class Guard:
         self.stage_need = self.need  # what the stage under way keeps (:meth:`begin`)
         self.checker = SceneChecker(vehicle, scene)
         self.least = math.inf  # least clearance seen, for the record
-        self.doubt = np.zeros(4)  # the last measurement's (x_t, y_t, yaw_t, hitch)
 
-    def clearances(self, configs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def clearances(self, configs: np.ndarray, doubt: Sequence[float] = NO_DOUBT) -> tuple[np.ndarray, np.ndarray]:
         """Each configuration's (rows x_t, y_t, yaw_t, hitch) clearance [m], and the least of it and of it with each
-        component moved by the last measurement's doubt either side (the module text)."""
+        component moved by ``doubt`` (a measurement's) either side (the module text)."""
         configs = np.asarray(configs, dtype=float)
         moved = [configs]
-        for i in np.flatnonzero(self.doubt):
+        for i, d in enumerate(doubt):
+            if d == 0.0:
+                continue
             for sign in (-1.0, 1.0):
                 shifted = configs.copy()
-                shifted[:, i] += sign * self.doubt[i]
+                shifted[:, i] += sign * d
                 moved.append(shifted)
         clear = self.checker.clearances(np.vstack(moved)).reshape(len(moved), len(configs))
         return clear[0], clear.min(axis=0)
 
     def doubt_gap(self, measurement: Measurement) -> tuple[float, float]:
         """The measured configuration's clearance as estimated [m], and how much less it is with its doubt allowed
-        for (0 without a doubt); from now on the guard checks with this measurement's doubt."""
-        self.doubt = np.asarray(measurement.doubt, dtype=float)
+        for (0 without a doubt)."""
         s = measurement.state
-        estimated, doubtful = self.clearances(np.array([[s.x, s.y, s.yaw, s.hitch]]))
+        estimated, doubtful = self.clearances(np.array([[s.x, s.y, s.yaw, s.hitch]]), measurement.doubt)
         return float(estimated[0]), float(estimated[0] - doubtful[0])
 
     def begin(self, measurement: Measurement) -> float:
@@ -120,10 +132,9 @@ class Guard:
         ``min_clearance_m``; a start whose doubtful clearance is below that, what it begins with less the margin).
         Returns what the doubtful clearance keeps [m]."""
         s = measurement.state
-        self.doubt = np.asarray(measurement.doubt, dtype=float)
-        now = float(self.clearances(np.array([[s.x, s.y, s.yaw, s.hitch]]))[1][0])
+        now = float(self.clearances(np.array([[s.x, s.y, s.yaw, s.hitch]]), measurement.doubt)[1][0])
         self.stage_need = max(self.floor, min(self.need, now - ESCAPE_MARGIN_M))
-        if now < self.floor and self.doubt.any():  # the estimate itself still keeps the floor (:meth:`check`)
+        if now < self.floor and any(measurement.doubt):  # the estimate itself still keeps the floor (:meth:`check`)
             self.stage_need = now - ESCAPE_MARGIN_M
         return self.stage_need
 
@@ -136,10 +147,18 @@ class Guard:
         speed = abs(speed)
         return (self.delay + 1) * self.dt * speed + speed * speed / self.vehicle.max_accel
 
-    def free_travel(self, state: np.ndarray, direction: float, steers: tuple[float, ...], travel: float) -> float:
+    def free_travel(
+        self,
+        state: np.ndarray,
+        direction: float,
+        steers: tuple[float, ...],
+        travel: float,
+        doubt: Sequence[float] = NO_DOUBT,
+    ) -> float:
         """How far [m] the rear axle can travel from ``state`` (x_t, y_t, yaw_t, hitch) in ``direction`` with each
         front steer of ``steers`` held, up to ``travel``, while every body keeps the guard's clearance (and the
-        step's margin): ``travel`` if it keeps it all the way, 0 if not even the first step does."""
+        step's margin), ``state``'s ``doubt`` allowed for: ``travel`` if it keeps it all the way, 0 if not even the
+        first step does."""
         n = max(1, math.ceil(travel / ROLLOUT_STEP_M))
         ds = travel / n
         inputs = np.array([[math.copysign(1.0, direction)] * len(steers), list(steers)])
@@ -148,7 +167,7 @@ class Guard:
         for _ in range(n):  # RK4 over the rear axle's travel (unit speed), every steer at once
             x = rk4(lambda y: full_rhs(self.vehicle, y, inputs), x, ds, substeps=1)
             samples.append(x.T)
-        clear = self.clearances(np.vstack(samples))[1].reshape(n, len(steers)).min(axis=1)
+        clear = self.clearances(np.vstack(samples), doubt)[1].reshape(n, len(steers)).min(axis=1)
         short = np.flatnonzero(clear < self.stage_need + BODY_SPEED_RATIO * ds / 2.0)
         return travel if not len(short) else float(short[0]) * ds
 
@@ -166,13 +185,12 @@ class Guard:
         if not step.ok or step.stop:
             return step
         s = measurement.state
-        self.doubt = np.asarray(measurement.doubt, dtype=float)
         configs = [np.array([s.x, s.y, s.yaw, s.hitch])]
         predicted = step.predicted_states
         if predicted.ndim == 2 and predicted.shape[0] > 1 and predicted.shape[1] >= 4:
             x, y, yaw = from_goal_frame(goal, predicted[1:, 0], predicted[1:, 1], predicted[1:, 2])
             configs.append(np.column_stack([x, y, yaw, predicted[1:, 3]]))
-        estimated, doubtful = self.clearances(np.vstack(configs))
+        estimated, doubtful = self.clearances(np.vstack(configs), measurement.doubt)
         self.least = min(self.least, float(estimated[0]))
         for clearance, keep in ((doubtful, self.stage_need), (estimated, self.floor)):
             now, ahead = float(clearance[0]), float(clearance.min())
@@ -193,7 +211,8 @@ class Guard:
             # The bound holds whatever way the bodies move; along the scene or away from it they may go faster.
             state = np.array([s.x, s.y, s.yaw, s.hitch])
             steers = (float(measurement.front_steer), float(step.front_steer))
-            free = self.free_travel(state, step.rear_speed, steers, self.stopping_travel(step.rear_speed))
+            travel = self.stopping_travel(step.rear_speed)
+            free = self.free_travel(state, step.rear_speed, steers, travel, measurement.doubt)
             cap = max(cap, self.speed_for_travel(free))
             if abs(step.rear_speed) <= cap:
                 return step

@@ -156,8 +156,7 @@ class FullNMPC(RecedingHorizon):
     def ease_clearance(self, clearance_m: float) -> None:
         """From now on keep the bodies ``clearance_m`` from the scene where that is less than :meth:`keep_clear`
         asked (what it asked otherwise): for a stage that begins nearer than that."""
-        self._clearance_m = min(self._base_clearance_m, float(clearance_m))
-        self._program = self._program_for(self._reference is not None)
+        self.hold_clearance(min(self._base_clearance_m, float(clearance_m)))
 
     def hold_clearance(self, clearance_m: float) -> None:
         """From now on keep the bodies ``clearance_m`` from the scene, more than :meth:`keep_clear` asked or less:

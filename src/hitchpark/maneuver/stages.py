@@ -178,8 +178,7 @@ class GuardedStage:
             # Its predictions keep what the guard keeps this stage, and the spare (keep_clear's, or less).
             nmpc.ease_clearance(need + CLEARANCE_SPARE_M)
             if any(measurement.doubt):
-                self.most = self.guard.doubt_gap(measurement)[0] - CLEARANCE_SPARE_M
-                self._hold(nmpc, measurement)
+                self._hold(nmpc, measurement, begins=True)
         return self.stage.begin(measurement, goal)
 
     def act(self, measurement: Measurement, goal: Pose, in_flight: Sequence[Command]) -> ControlStep:
@@ -194,12 +193,15 @@ class GuardedStage:
             return self.stage.nmpc
         return None
 
-    def _hold(self, nmpc: FullNMPC, measurement: Measurement) -> None:
+    def _hold(self, nmpc: FullNMPC, measurement: Measurement, begins: bool = False) -> None:
         """With a doubtful estimate, the NMPC's predictions (the estimate's clearance) keep the guard's clearance
         plus what the doubt takes from it at the measured configuration, and the spare (else it plans what the
         guard stops), but never more than the stage began with (:attr:`most`; else a stage begun near the scene has
-        no plan). Called only with a doubt: with exact readings nothing changes."""
-        gap = self.guard.doubt_gap(measurement)[1]
+        no plan; ``begins``: the stage begins at ``measurement``). Called only with a doubt: with exact readings
+        nothing changes."""
+        now, gap = self.guard.doubt_gap(measurement)
+        if begins:
+            self.most = now - CLEARANCE_SPARE_M
         nmpc.hold_clearance(max(0.0, min(self.guard.stage_need + gap + CLEARANCE_SPARE_M, self.most)))
 
 
