@@ -20,6 +20,7 @@
 #include "separating_lines.c"
 
 #define HP_REACH 2.5 /* obstacles.REACH_M */
+#define HP_MAX_SIZE 64 /* the most vertices a piece is padded to that hp_nearest sorts the edges of */
 
 typedef struct {
     hp_int n, size;
@@ -126,19 +127,21 @@ static double hp_outside(const double *p, const double *lo, const double *hi) {
 }
 
 /* hp_separating_lines of one body of 4 corners and one segment that hp_overlaps does not overlap: the distance
-   and normal. The corners and tips whose box is farther than the nearest found are not measured. */
-static void hp_gap(const double *body, const double *a, const double *free_normal, double margin, double *distance,
-                   double *n) {
+   and normal. The corners and tips whose box is farther than the nearest found are not measured, nor those whose
+   box is farther than `cap` (the nearest edge of the piece found so far; inf: none): where every one is, the segment
+   is surely farther than cap, and the distance is inf (not its own; the caller takes it for no edge). */
+static void hp_gap(const double *body, const double *a, const double *free_normal, double margin, double cap,
+                   double *distance, double *n) {
     const double *b = a + 2;
     double lo[2], hi[2];
-    double d_corner = 0.0, q_best[2] = {0.0, 0.0}, d_tip = INFINITY, r_best[2] = {0.0, 0.0};
+    double d_corner = INFINITY, q_best[2] = {0.0, 0.0}, d_tip = INFINITY, r_best[2] = {0.0, 0.0};
     hp_int i_corner = -1, i_tip = -1;
     for (int x = 0; x < 2; x++) lo[x] = a[x] < b[x] ? a[x] : b[x], hi[x] = a[x] < b[x] ? b[x] : a[x];
     /* Corners to the segment. */
     for (hp_int corner = 0; corner < 4; corner++) {
         const double *p = body + 2 * corner;
-        double q[2], gap;
-        if (i_corner >= 0 && hp_outside(p, lo, hi) - margin > d_corner) continue; /* farther than the nearest */
+        double q[2], gap, bound = hp_outside(p, lo, hi) - margin;
+        if (bound > cap || (i_corner >= 0 && bound > d_corner)) continue; /* farther than the nearest */
         nearest_on(p, a, b, q);
         if (i_corner >= 0 && hp_farther(p[0] - q[0], p[1] - q[1], d_corner)) continue;
         gap = hypot(p[0] - q[0], p[1] - q[1]);
@@ -153,15 +156,19 @@ static void hp_gap(const double *body, const double *a, const double *free_norma
         for (int t = 0; t < 2; t++) {
             const double *tip = a + 2 * t;
             double r[2], gap, bound = hp_outside(tip, elo, ehi) - margin;
-            if (bound > d_corner || (i_tip >= 0 && bound > d_tip)) continue;
+            if (bound > cap || bound > d_corner || (i_tip >= 0 && bound > d_tip)) continue;
             nearest_on(tip, s0, s1, r);
             if (i_tip >= 0 && hp_farther(tip[0] - r[0], tip[1] - r[1], d_tip)) continue;
             gap = hypot(tip[0] - r[0], tip[1] - r[1]);
             if (i_tip < 0 || better(gap, d_tip)) i_tip = 2 * e + t, d_tip = gap, r_best[0] = r[0], r_best[1] = r[1];
         }
     }
+    if (i_corner < 0 && i_tip < 0) { /* every corner and tip past cap */
+        *distance = INFINITY;
+        return;
+    }
     {
-        int by_corner = d_corner <= d_tip; /* no tip measured: d_tip inf, the corner's */
+        int by_corner = i_corner >= 0 && d_corner <= d_tip; /* no tip measured: d_tip inf, the corner's */
         const double *tip = by_corner || i_tip < 0 ? a : a + 2 * (i_tip % 2);
         double body_x = by_corner ? body[2 * i_corner] : r_best[0];
         double body_y = by_corner ? body[2 * i_corner + 1] : r_best[1];
@@ -179,28 +186,43 @@ static void hp_gap(const double *body, const double *a, const double *free_norma
 }
 
 /* The first part of ClearanceConstraints.lines for one body (its 4 points, their box low-high) and one piece within
-   reach that no edge overlaps: its nearest real edge's gap (the distance) and normal. `bound`: a lower bound of
-   the distance to the piece. */
+   reach that no edge overlaps: its nearest real edge's gap (the distance) and normal, the first such edge's where two
+   are as near. `bound`: a lower bound of the distance to the piece. The edges are measured nearest bound first (their
+   boxes' gap to the body's), so that the nearest is found early and the others, whose bound is past it, are not
+   measured; an edge as near as the nearest found and before it takes its place, as the first would in edge order.
+   With `margin` NaN (a number not finite), in edge order, each measured. */
 static double hp_nearest(const double *points, const double *low, const double *high, const hp_pieces *pc, hp_int j,
                          double bound, double margin, double *nearest) {
-    hp_int size = pc->size;
+    hp_int size = pc->size, order[HP_MAX_SIZE], count = 0;
     const double *out = pc->outward + 2 * size * j, *real = pc->real + size * j;
-    double best = INFINITY;
-    hp_int i_best = -1;
+    double best = INFINITY, lbs[HP_MAX_SIZE];
+    hp_int i_best = -1, sorted = margin == margin && size <= HP_MAX_SIZE;
     nearest[0] = nearest[1] = 0.0;
-    for (hp_int v = 0; v < size; v++) {
+    for (hp_int v = 0; v < size; v++) { /* the real edges, by their bound (stable), or in order */
         const double *ends = pc->edges + 4 * (size * j + v);
-        double gap, normal[2];
+        double lo[2], hi[2], lb;
+        hp_int at;
         if (real[v] == 0.0) continue;
-        if (i_best >= 0) { /* an edge that cannot be nearer than the nearest found */
-            double lo[2], hi[2], lb;
-            for (int x = 0; x < 2; x++)
-                lo[x] = ends[x] < ends[2 + x] ? ends[x] : ends[2 + x], hi[x] = ends[x] < ends[2 + x] ? ends[2 + x] : ends[x];
-            lb = most(most(most(lo[0] - high[0], low[0] - hi[0]), most(lo[1] - high[1], low[1] - hi[1])), bound) - margin;
-            if (lb > best && lb >= 1e-9) continue;
+        for (int x = 0; x < 2; x++)
+            lo[x] = ends[x] < ends[2 + x] ? ends[x] : ends[2 + x], hi[x] = ends[x] < ends[2 + x] ? ends[2 + x] : ends[x];
+        lb = most(most(most(lo[0] - high[0], low[0] - hi[0]), most(lo[1] - high[1], low[1] - hi[1])), bound) - margin;
+        if (!sorted) { /* in edge order: the bound as it was, each edge measured unless past the nearest so far */
+            double gap, normal[2];
+            if (i_best >= 0 && lb > best && lb >= 1e-9) continue;
+            hp_gap(points, ends, out + 2 * v, margin, INFINITY, &gap, normal);
+            if (i_best < 0 || better(gap, best)) i_best = v, best = gap, nearest[0] = normal[0], nearest[1] = normal[1];
+            continue;
         }
-        hp_gap(points, ends, out + 2 * v, margin, &gap, normal);
-        if (i_best < 0 || better(gap, best)) i_best = v, best = gap, nearest[0] = normal[0], nearest[1] = normal[1];
+        for (at = count++; at > 0 && lbs[at - 1] > lb; at--) lbs[at] = lbs[at - 1], order[at] = order[at - 1];
+        lbs[at] = lb, order[at] = v;
+    }
+    for (hp_int i = 0; i < count; i++) {
+        hp_int v = order[i];
+        double gap, normal[2];
+        if (i_best >= 0 && lbs[i] > best && lbs[i] >= 1e-9) break; /* this edge and every one after it */
+        hp_gap(points, pc->edges + 4 * (size * j + v), out + 2 * v, margin, best, &gap, normal);
+        if (i_best < 0 || gap < best || (gap == best && v < i_best))
+            i_best = v, best = gap, nearest[0] = normal[0], nearest[1] = normal[1];
     }
     return best;
 }
@@ -247,9 +269,12 @@ static void hp_finish(const double *points, const double *anchor, const hp_piece
 }
 
 /* ClearanceConstraints.lines's distance for one body and one piece where it needs no edge measured: out of reach
-   (inf; 0 where the body is inside the piece), or an overlap (0). Else NAN, and *bound a lower bound of it. */
+   (inf; 0 where the body is inside the piece), or an overlap (0). Else NAN, and *bound a lower bound of it. The
+   overlap of an edge and the body is not looked for where the body's box and the piece's are apart along x or y by
+   more than `margin`: neither a crossing nor an end inside the body can then be, and no rounding makes one (the
+   orientations it takes are off by far less than margin). */
 static double hp_known(const double *points, const double *low, const double *high, const hp_pieces *pc, hp_int j,
-                       double *bound) {
+                       double margin, double *bound) {
     hp_int size = pc->size;
     const double *vert = pc->vertices + 2 * size * j, *out = pc->outward + 2 * size * j, *real = pc->real + size * j;
     const double *vmin = pc->box + 4 * j, *vmax = vmin + 2;
@@ -263,8 +288,9 @@ static double hp_known(const double *points, const double *low, const double *hi
     }
     if (!hp_in_reach(apart[0], apart[1])) return inside ? 0.0 : INFINITY;
     if (inside) return 0.0;
-    for (hp_int v = 0; v < size; v++)
-        if (real[v] != 0.0 && hp_overlaps(points, pc->edges + 4 * (size * j + v))) return 0.0;
+    if (!(most(apart[0], apart[1]) > margin))
+        for (hp_int v = 0; v < size; v++)
+            if (real[v] != 0.0 && hp_overlaps(points, pc->edges + 4 * (size * j + v))) return 0.0;
     /* The boxes' gap, and the gap along each edge's outward normal (the piece on its inner side, within extent). */
     *bound = most(apart[0], apart[1]);
     for (hp_int v = 0; v < size; v++) {
@@ -352,7 +378,7 @@ int hp_clearance_lines(hp_int n_steps, const double *states, hp_int stride, cons
                 }
                 /* The distances that need no edge measured; the others in the order of their bounds. */
                 for (hp_int i = 0; i < within; i++) {
-                    double d = hp_known(points, blow, bhigh, &pc, piece[i], lb + i);
+                    double d = hp_known(points, blow, bhigh, &pc, piece[i], margin, lb + i);
                     nx[i] = ny[i] = 0.0;
                     dist[i] = d;
                     if (d != d) {
