@@ -66,8 +66,9 @@ def test_sil_refuses_bad_input_in_one_line(tmp_path, capsys):
 
 
 def test_the_real_time_iteration_setting_goes_into_the_package_and_nowhere_by_default(tmp_path):
-    """``[nmpc.solver_options] warm_iterations`` (benchmarks/settings/realtime_iteration.toml) defines HP_WARM_ITER in
-    each OCP's file of the package; the default package has none (its solver is the in-process default's)."""
+    """``[nmpc.solver_options] warm_iterations`` and ``whole_steps_only`` (benchmarks/settings/realtime_iteration.toml)
+    define HP_WARM_ITER and HP_WARM_WHOLE in each OCP's file of the package; the default package has neither (its
+    solver is the in-process default's)."""
     from pathlib import Path
 
     settings = Path(__file__).parents[2] / "benchmarks" / "settings" / "realtime_iteration.toml"
@@ -77,5 +78,7 @@ def test_the_real_time_iteration_setting_goes_into_the_package_and_nowhere_by_de
         for ocp in ("park", "track"):
             text = (out / "src" / f"hitchpark_nmpc_ocp_{ocp}.c").read_text()
             assert ("#define HP_WARM_ITER 1\n" in text) == defined
+            assert ("#define HP_WARM_WHOLE 1\n" in text) == defined
         manifest = json.loads((out / "manifest.json").read_text())
-        assert manifest["settings"]["nmpc"]["solver_options"] == ({"warm_iterations": 1} if defined else {})
+        options = {"warm_iterations": 1, "whole_steps_only": True}
+        assert manifest["settings"]["nmpc"]["solver_options"] == (options if defined else {})

@@ -205,7 +205,13 @@ def test_riccati_fails_on_what_it_cannot_take(shared_jit_cache, obstacle_problem
     [
         (
             {"max_itr": 5},
-            "unknown option 'max_itr'; the options are tol, mu, max_iter, bound_push, corrector, warm_iterations",
+            "unknown option 'max_itr'; the options are tol, mu, max_iter, bound_push, corrector, warm_iterations, "
+            "whole_steps_only",
+        ),
+        ({"whole_steps_only": 1, "warm_iterations": 1}, "option 'whole_steps_only' must be True or False, got 1"),
+        (
+            {"whole_steps_only": True},
+            "option 'whole_steps_only' needs 'warm_iterations' (the Newton steps before the cap)",
         ),
         ({"warm_iterations": 0}, "option 'warm_iterations' must be None or a whole number in [1, max_iter], got 0"),
         (
@@ -263,6 +269,49 @@ def test_riccati_warm_iterations_caps_a_warm_solve_only(shared_jit_cache, full_p
             if full.stats()["iter_count"] < cap:  # converged before the cap: the same answer
                 np.testing.assert_array_equal(x, np.asarray(previous["x"]).ravel())
         assert reached > 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("recorded", ["full_problems", "obstacle_problems"])
+def test_riccati_whole_steps_only_answers_a_step_taken_whole(shared_jit_cache, recorded, request):
+    """``whole_steps_only`` with ``warm_iterations = 1``: a warm solve runs the default's iterations and stops at the
+    first step taken whole. So it never takes more steps than the default; where it takes as many, it answers the
+    default's answer to the bit, and where it takes one, the plain cap's. On the recorded problems (the full OCP's
+    and the obstacle OCP's at the campsite, each warm-started from the answer to the problem before) it answers
+    after one step somewhere the default takes more, and goes on past a step cut short somewhere else."""
+    controller, problems = request.getfixturevalue(recorded)
+    tr = controller.transcription
+    equality = list(tr.lbg == tr.ubg)
+    floor = controller.settings.dual_floor
+    full = _riccati(controller)
+    plain = make_solver("riccati_c", tr.nlp, equality, {"warm_iterations": 1}, transcription=tr, dual_floor=floor)
+    whole = make_solver("riccati_c", tr.nlp, equality, {"warm_iterations": 1, "whole_steps_only": True},
+                        transcription=tr, dual_floor=floor)  # fmt: skip
+    kkt = _kkt(tr)
+    previous, one_step, went_on = None, 0, 0
+    for problem in problems:
+        if previous is not None:
+            start = {"lam_x0": previous["lam_x"], "lam_g0": previous["lam_g"]}
+            answer = whole(**problem.inputs(), **start)
+            stats = whole.stats()
+            assert stats["success"]
+            x = np.asarray(answer["x"]).ravel()
+            f, g = kkt(x, problem.p)[:2]
+            assert answer["f"] == pytest.approx(float(f), rel=1e-12, abs=1e-12)
+            np.testing.assert_allclose(answer["g"], np.asarray(g).ravel(), atol=1e-12, rtol=1e-12)
+            reference = full(**problem.inputs(), **start)
+            steps, default_steps = stats["iter_count"], full.stats()["iter_count"]
+            assert 1 <= steps <= default_steps
+            if steps == default_steps:
+                np.testing.assert_array_equal(x, np.asarray(reference["x"]).ravel())
+            if steps == 1:
+                np.testing.assert_array_equal(x, np.asarray(plain(**problem.inputs(), **start)["x"]).ravel())
+            one_step += steps == 1 < default_steps
+            went_on += steps > 1
+            previous = reference
+        else:
+            previous = full(**problem.inputs())
+    assert one_step > 0 and went_on > 0
 
 
 def test_riccati_stands_in_fatrop_where_nothing_compiles(tmp_path, monkeypatch):

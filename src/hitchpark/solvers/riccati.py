@@ -51,8 +51,18 @@ def riccati_source() -> str:
 #: otherwise: where it is active, the slack starts this close to its bound), and whether each Newton step
 #: takes Mehrotra's corrector (the step's second-order term in the complementarity). ``warm_iterations`` (opt-in,
 #: None: off): the Newton steps a warm-started solve takes at most, its iterate then the answer (a success), as a
-#: real-time iteration (``HP_WARM_ITER``); a cold start keeps ``max_iter``.
-DEFAULTS = {"tol": 1e-8, "mu": 1e-9, "max_iter": 300, "bound_push": 1e-9, "corrector": True, "warm_iterations": None}
+#: real-time iteration (``HP_WARM_ITER``); a cold start keeps ``max_iter``. ``whole_steps_only`` (with
+#: ``warm_iterations``): the cap answers only a Newton step taken whole (primal and dual length 1); a step cut short
+#: goes on to the next one taken whole or to the tolerance (``HP_WARM_WHOLE``).
+DEFAULTS = {
+    "tol": 1e-8,
+    "mu": 1e-9,
+    "max_iter": 300,
+    "bound_push": 1e-9,
+    "corrector": True,
+    "warm_iterations": None,
+    "whole_steps_only": False,
+}
 
 
 def riccati_functions(transcription: Any, prefix: str) -> dict[str, ca.Function] | None:
@@ -163,6 +173,7 @@ def _config(transcription: Any, functions: Mapping[str, ca.Function], options: M
         "HP_BOUND_PUSH": repr(float(options["bound_push"])),
         "HP_CORRECTOR": int(options["corrector"]),
         **({} if options.get("warm_iterations") is None else {"HP_WARM_ITER": int(options["warm_iterations"])}),
+        **({"HP_WARM_WHOLE": 1} if options.get("whole_steps_only") else {}),
         **work,
         **{macro: f.name() for macro, f in functions.items()},
     }
@@ -182,14 +193,17 @@ def checked_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
             raise RuntimeError(f"option {key!r} must be a number in (0, 1), got {value!r}")
     if settings["mu"] >= settings["tol"]:
         raise RuntimeError(f"option 'mu' must be below 'tol' ({settings['tol']!r}), got {settings['mu']!r}")
-    if not isinstance(settings["corrector"], bool):
-        raise RuntimeError(f"option 'corrector' must be True or False, got {settings['corrector']!r}")
+    for key in ("corrector", "whole_steps_only"):
+        if not isinstance(settings[key], bool):
+            raise RuntimeError(f"option {key!r} must be True or False, got {settings[key]!r}")
     iterations = settings["max_iter"]
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise RuntimeError(f"option 'max_iter' must be a whole number of at least 1, got {iterations!r}")
     cap = settings["warm_iterations"]
     if cap is not None and (isinstance(cap, bool) or not isinstance(cap, int) or not 1 <= cap <= iterations):
         raise RuntimeError(f"option 'warm_iterations' must be None or a whole number in [1, max_iter], got {cap!r}")
+    if settings["whole_steps_only"] and cap is None:
+        raise RuntimeError("option 'whole_steps_only' needs 'warm_iterations' (the Newton steps before the cap)")
     return settings
 
 

@@ -47,13 +47,19 @@
  * Before this file come the definitions of HP_N, HP_NX, HP_NU, HP_NR (rows a stage), HP_NP (parameters a
  * stage), HP_H0 (1: p ends with the first step's length, which stage 0's functions take), HP_TOL, HP_MU,
  * HP_MAX_ITER, HP_BOUND_PUSH (the least slack at the start), HP_CORRECTOR (1: Mehrotra's corrector), the
- * functions' names and their work sizes (hitchpark.solvers.riccati); optionally HP_WARM_ITER (below).
+ * functions' names and their work sizes (hitchpark.solvers.riccati); optionally HP_WARM_ITER and HP_WARM_WHOLE (below).
  *
  * HP_WARM_ITER > 0 (opt-in; undefined or 0: off): a real-time-iteration-like cap on a warm-started solve. After
  * that many Newton steps of a solve from the caller's multipliers, the iterate is the answer, returned as a
  * success (code 0) whether or not it meets the tolerance; its cost, dynamics and rows come from the accepted
  * trial's evaluation, so the capped solve does not linearize again at its last point. A cold start keeps
  * HP_MAX_ITER.
+ *
+ * HP_WARM_WHOLE 1 (with HP_WARM_ITER; opt-in): the cap answers only a step taken whole, the primal and the dual
+ * step both of length 1: the iterate is then the Newton step of the linearization, as a real-time iteration's
+ * QP answers it. A step the fraction to the boundary or the line search cut short (a constraint coming active,
+ * a linearization that did not hold) is not an answer: the solve goes on, to the next step taken whole or to the
+ * tolerance, whichever comes first (a speed held on its bound is then released in one sample, not over many).
  */
 
 /* At -O3 a step takes a third less time than at the -O1 of hitchpark's own cache (the same bits): GCC takes that level
@@ -68,6 +74,9 @@
 
 #ifndef HP_WARM_ITER
 #define HP_WARM_ITER 0 /* off: every solve has HP_MAX_ITER iterations */
+#endif
+#ifndef HP_WARM_WHOLE
+#define HP_WARM_WHOLE 0 /* the cap answers any step */
 #endif
 #define HP_MIN_STEP 1e-12 /* the least step the line search tries */
 #define HP_MU_COLD 0.1    /* mu from a cold start (IPOPT's mu_init), brought down to HP_MU */
