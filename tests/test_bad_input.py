@@ -228,6 +228,18 @@ def test_bad_files(tmp_path, capsys, text, option, match):
     assert files_under(tmp_path) == before
 
 
+def test_a_sweep_whose_controller_refuses_its_settings_writes_nothing(tmp_path, capsys):
+    """A solver option the controller refuses (riccati_c's, checked when it is built) is refused before the sweep's
+    --out file is made: one line, exit status 2, no file."""
+    settings = tmp_path / "s.toml"
+    settings.write_text("[nmpc.solver_options]\nwhole_steps_only = true\n")
+    before = files_under(tmp_path)
+    argv = ["sweep", "--n", "2", "--seed", "1", "--settings", str(settings), "--out", str(tmp_path / "s.jsonl")]
+    code, err = run_cli(argv, capsys)
+    assert_refused(code, err, "option 'whole_steps_only' needs 'warm_iterations'")
+    assert files_under(tmp_path) == before
+
+
 # --- saved maneuvers read back (plot): (class, how the JSON is spoiled, words of the message) ---------------
 
 

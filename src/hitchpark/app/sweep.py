@@ -310,6 +310,9 @@ def run_sweep(
         prepare_scene(config.vehicle, config.goal, config.scene, config.settings)
         prepare_s = time.perf_counter() - t0
     if todo:
+        # The controller, built here once before the file is touched: settings it refuses (a solver's option out of
+        # range) leave the file as it was. The workers build their own; this process keeps this one (serial: reused).
+        controller_for(config)
         parked = sum(r.success for r in records.values())
         # The executor starts first: if it cannot (a scheduler out of reach), the file is left as it was.
         with (
