@@ -4,6 +4,7 @@ the jackknife and the obstacles it keeps away from, the input it refuses."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +15,7 @@ from hypothesis import strategies as st
 from hitchpark.assist import OVERRIDES, AssistSettings, KnobAssist, max_curvature
 from hitchpark.checks import InputError
 from hitchpark.model import IDEAL, Plant, PlantSettings, State, VehicleTrailer, load_plant
+from hitchpark.model.plant import Measurement
 from hitchpark.model.collision import swept_clearance
 from hitchpark.model.inverse import front_steer_from_virtual, steady_hitch_from_virtual
 from hitchpark.model.kinematics import full_rates
@@ -143,6 +145,23 @@ def test_once_stopped_for_an_obstacle_it_stays_stopped_until_the_driver_lets_go_
     assist.step(m, 0.0, 1.0)  # stopped again at the true reading (the guard's own stop)
     assert assist.step(clearer, 0.0, 1.0).rear_speed == 0.0
     assert assist.step(clearer, 0.25, 1.0).rear_speed < 0.0
+
+
+def test_the_estimates_doubt_counts_against_the_obstacle():
+    """With an estimator in the loop the reading is an estimate and the truth within its doubt: the assist's guard
+    allows for it as the maneuvers' guard does. A reading 0.1 m clearer of a wall than the guard keeps lets the car
+    reverse; told the reading may be 0.15 m off, the assist stops it; 0.05 m off, it reverses slower."""
+    wall = Scene((Obstacle("wall", ((-10.0, -6.0), (-9.0, -6.0), (-9.0, 6.0), (-10.0, 6.0))),))
+    s = AssistSettings(dt=DT)
+    need = s.min_clearance_m + s.margin_m
+    reading = Measurement(0.0, State(-9.0 + V.trailer_rear + need + 0.1, 0.0, 0.0, 0.0), 0.0, 0.0)
+    exact, slowed, stopped = (
+        KnobAssist(V, s, wall).step(replace(reading, doubt=(d, 0.0, 0.0, 0.0)), 0.0, 1.0) for d in (0.0, 0.05, 0.15)
+    )
+    assert exact.rear_speed < 0.0 and slowed.rear_speed < 0.0
+    assert stopped.rear_speed == 0.0 and stopped.override == "stopped_for_obstacle"
+    assert exact.speed_cap > slowed.speed_cap > 0.0 == stopped.speed_cap
+    assert slowed.override == "slowed_for_obstacle"
 
 
 @pytest.mark.parametrize(

@@ -37,7 +37,9 @@ rear-axle speed:
    stopping travel (the command's lag, then braking at half ``max_accel``) must fit in the room left. Among
    obstacles the :class:`~hitchpark.control.guard.Guard` caps it so that the car can stop before a body comes
    within ``min_clearance_m`` (+ ``margin_m``), rolling the model out over the stopping travel with the steer
-   held and checking the bodies exactly. The speed command moves by at most ``max_accel dt`` per tick.
+   held and checking the bodies exactly; with an estimator in the loop, each configuration also with the
+   estimate's doubt either side (``Measurement.doubt``), as the guard of a maneuver checks it. The speed command
+   moves by at most ``max_accel dt`` per tick.
 
 Each step says whether and how it overrode the driver (:data:`OVERRIDES`, the one that bound).
 """
@@ -319,18 +321,20 @@ class KnobAssist:
         return cap
 
     def _guard_cap(self, measurement: Measurement, steers: tuple[float, ...], want: float) -> float:
-        """The guard's speed cap [m/s] among obstacles (inf without a scene)."""
+        """The guard's speed cap [m/s] among obstacles (inf without a scene), the estimate's doubt allowed for as
+        the guard allows for it (``Measurement.doubt``: 0 with exact readings)."""
         if self.guard is None or want <= 0.0:
             return math.inf
         g, st = self.guard, measurement.state
         config = np.array([st.x, st.y, st.yaw, st.hitch])
-        now = float(g.checker.clearances(config[None, :])[0])
-        g.least = min(g.least, now)
+        estimated, doubtful = g.clearances(config[None, :], measurement.doubt)
+        g.least = min(g.least, float(estimated[0]))
+        now = float(doubtful[0])
         if now < g.need:
             return 0.0
         cap = g.max_speed(now - g.need)
         if want <= cap:
             return math.inf
-        free = g.free_travel(config, -1.0, (steers[0], steers[-1]), g.stopping_travel(want))
+        free = g.free_travel(config, -1.0, (steers[0], steers[-1]), g.stopping_travel(want), measurement.doubt)
         cap = max(cap, g.speed_for_travel(free))
         return math.inf if want <= cap else cap
