@@ -15,10 +15,10 @@ from hypothesis import strategies as st
 from hitchpark.assist import OVERRIDES, AssistSettings, KnobAssist, max_curvature
 from hitchpark.checks import InputError
 from hitchpark.model import IDEAL, Plant, PlantSettings, State, VehicleTrailer, load_plant
-from hitchpark.model.plant import Measurement
 from hitchpark.model.collision import swept_clearance
 from hitchpark.model.inverse import front_steer_from_virtual, steady_hitch_from_virtual
 from hitchpark.model.kinematics import full_rates
+from hitchpark.model.plant import Measurement
 from hitchpark.model.scene import Obstacle, Scene
 
 V = VehicleTrailer()
