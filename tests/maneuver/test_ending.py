@@ -8,6 +8,7 @@ would plan then). What ends the maneuver, and whether the process was asked, is 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 
@@ -139,3 +140,39 @@ def test_a_process_that_ends_before_any_stage_leaves_one_standing_row(monkeypatc
     assert result.reason == Outcome.NO_PATH.value and result.detail == "no path from the start"
     assert len(result.stages) == 1 and result.stages[0].reason == "not started"
     assert math.isclose(result.stages[0].distance_error_m, 3.0)
+
+
+class Crawling(Scripted):
+    """A scripted stage of 150 steps' budget that reverses at ``speed`` for ``moving`` steps, then stands (speed
+    0, never stopping) until ``steps``."""
+
+    max_steps = 150
+
+    def __init__(self, steps: int, moving: int, speed: float):
+        super().__init__("reverse", steps, speed)
+        self.moving = moving
+
+    def act(self, measurement, goal, in_flight):
+        step = super().act(measurement, goal, in_flight)
+        if self.done > self.moving and not step.stop:
+            return replace(step, trailer_speed=0.0, rear_speed=0.0)  # standing, not stopped
+        return step
+
+
+def test_a_stage_past_its_steps_goes_on_while_it_makes_its_way_and_stalls_once_it_does_not(monkeypatch):
+    """A stage that has used its steps goes on while the trailer moved STALL_TRAVEL_M or more in the last
+    STALL_WINDOW_S (a car the guard holds to a crawl finishes); one that stands ends stalled a window later."""
+    from hitchpark.maneuver.loop import STALL_TRAVEL_M, STALL_WINDOW_S
+
+    window = round(STALL_WINDOW_S / 0.1)
+    slow = STALL_TRAVEL_M / STALL_WINDOW_S * 1.5  # half again the least way a window
+    crawling = run(monkeypatch, Script([Crawling(steps=400, moving=400, speed=-slow)]), State(40.0, 0.0, 0.0, 0.0))
+    assert crawling.stages[0].reason == "stopped" and crawling.stages[0].steps == 400  # 250 past its 150
+    standing = run(monkeypatch, Script([Crawling(steps=400, moving=200, speed=-slow)]), State(40.0, 0.0, 0.0, 0.0))
+    assert standing.reason == Outcome.STALLED.value
+    # It stands from step 200 on (the speed ramps down over a sample or two): stalled once the last window's way
+    # is less than the least, when less than 1 / 1.5 of the window was still moving.
+    expected = 200 + window * (1.0 - 1.0 / 1.5)
+    assert expected - 3 < standing.stages[0].steps < expected + 3
+    too_slow = run(monkeypatch, Script([Crawling(steps=400, moving=400, speed=-slow / 2)]), State(40.0, 0.0, 0.0, 0.0))
+    assert too_slow.reason == Outcome.STALLED.value and too_slow.stages[0].steps == 150  # at its steps

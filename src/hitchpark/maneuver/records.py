@@ -35,7 +35,7 @@ class Outcome(StrEnum):
     PARKED = "parked"
     JACKKNIFE = "jackknife"  # the next step would pass max_hitch; it was not applied
     SOLVER = "solver"  # the NMPC and its fallbacks failed; the car was stopped
-    STALLED = "stalled"  # a stage that never ended (reverse never stopped, forward never met its conditions)
+    STALLED = "stalled"  # a stage that never ended and no longer made its way (reverse, or forward short of its end)
     TIMEOUT = "timeout"
     MAX_STAGES = "max_stages"
     LIMITS_EXCEEDED = "limits exceeded"

@@ -55,7 +55,8 @@ class Stage(Protocol):
 
     @property
     def max_steps(self) -> int:
-        """A stage that has not ended after this many steps ends as stalled."""
+        """A stage that has not ended after this many steps ends as stalled, unless it still makes its way
+        (``hitchpark.maneuver.loop.run_stage``)."""
         ...
 
     def begin(self, measurement: Measurement, goal: Pose) -> float | None:

@@ -125,7 +125,8 @@ class NMPCSettings:
         solution becomes zero", Section 4.1). The solver's own tolerance is ~1e-8, so 1e-3 m/s (1 mm per
         1 s) separates a real zero from the last fractional approach step, which is larger.
     max_steps : int
-        A reverse stage that has not stopped after this many steps ends as stalled.
+        A reverse stage that has not stopped after this many steps ends as stalled, unless the trailer still makes
+        its way (0.25 m in the last 10 s, ``hitchpark.maneuver.loop.STALL_TRAVEL_M``): it then goes on.
     solver : str or None
         A registered route (:mod:`hitchpark.solvers`, compared by ``hitchpark bench``): ``"riccati_c"`` (hitchpark's
         own structure-exploiting interior point, :mod:`hitchpark.solvers.riccati`, compiled with the OCP; both kinds'
