@@ -32,7 +32,7 @@ from ..model.plant import PlantSettings
 from ..model.state import Pose, State
 from ..model.vehicle import VehicleTrailer
 from ..ocp.full import FullParkingProblem
-from ..ocp.obstacles import CLEARANCE_LINES_SOURCE, ClearanceConstraints, vehicle_shape
+from ..ocp.obstacles import CLEARANCE_LINES_SOURCE, CLEARANCE_PIECES_SOURCE, ClearanceConstraints, vehicle_shape
 from ..ocp.separating import SEPARATING_LINES_SOURCE
 from ..ocp.settings import NMPCSettings
 from ..solvers.casadi_patches import mark_unused_arguments
@@ -58,8 +58,11 @@ MAX_PIECES, MAX_VERTICES = 128, 16
 
 #: The files only a package among obstacles has: the geometry, hitchpark's own C files as the in-process route
 #: compiles them.
-GEOMETRY_FILES = {"src/geometry/clearance_lines.c": CLEARANCE_LINES_SOURCE, "src/geometry/separating_lines.c":
-                  SEPARATING_LINES_SOURCE}  # fmt: skip
+GEOMETRY_FILES = {
+    "src/geometry/clearance_lines.c": CLEARANCE_LINES_SOURCE,
+    "src/geometry/clearance_pieces.c": CLEARANCE_PIECES_SOURCE,
+    "src/geometry/separating_lines.c": SEPARATING_LINES_SOURCE,
+}
 
 #: The files of a package, relative to its folder (what ``hitchpark export`` owns there).
 PACKAGE_FILES = (

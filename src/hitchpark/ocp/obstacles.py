@@ -50,6 +50,7 @@ from .separating import SEPARATING_LINES_SOURCE, prepare_lines, separating_lines
 
 __all__ = [
     "CLEARANCE_LINES_SOURCE",
+    "CLEARANCE_PIECES_SOURCE",
     "REACH_M",
     "ClearanceConstraints",
     "convex_pieces",
@@ -64,8 +65,11 @@ REACH_M = 2.5
 #: An unused slot: 0 . p - (-1) >= 0 always holds.
 _UNUSED = (0.0, 0.0, -1.0)
 
-#: The compiled :meth:`ClearanceConstraints.parameters` (it includes :data:`.separating.SEPARATING_LINES_SOURCE`).
+#: The compiled :meth:`ClearanceConstraints.parameters` (it includes :data:`CLEARANCE_PIECES_SOURCE` and
+#: :data:`.separating.SEPARATING_LINES_SOURCE`).
 CLEARANCE_LINES_SOURCE = Path(__file__).with_name("clearance_lines.c")
+#: Its measurements of one body and one piece (included by it).
+CLEARANCE_PIECES_SOURCE = Path(__file__).with_name("clearance_pieces.c")
 
 _INT, _PTR = ctypes.c_longlong, ctypes.c_void_p
 
@@ -78,7 +82,11 @@ def _kernel(compiling: bool, cache: str | None) -> Any:
     argtypes = [_INT, _PTR, _INT, _PTR, _INT, _INT, _PTR, _PTR, _PTR, _PTR, _INT, ctypes.c_double, ctypes.c_int,
                 ctypes.c_int, _PTR, _PTR]  # fmt: skip
     return source_function(
-        "clearance_lines", CLEARANCE_LINES_SOURCE, "hp_clearance_lines", argtypes, (SEPARATING_LINES_SOURCE,)
+        "clearance_lines",
+        CLEARANCE_LINES_SOURCE,
+        "hp_clearance_lines",
+        argtypes,
+        (SEPARATING_LINES_SOURCE, CLEARANCE_PIECES_SOURCE),
     )
 
 
