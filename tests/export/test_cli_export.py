@@ -54,9 +54,11 @@ def test_sil_refuses_bad_input_in_one_line(tmp_path, capsys):
     assert "nosuch" in capsys.readouterr().err
     assert not (tmp_path / "s.json").exists()
     (tmp_path / "paper.toml").write_text('[nmpc]\nkind = "paper"\n')
+    (tmp_path / "success.toml").write_text("[success]\nmax_stages = 3\n")
     for settings, message in (
         (tmp_path / "none.toml", "cannot read settings file"),
         (tmp_path / "paper.toml", "nmpc.kind 'full'"),
+        (tmp_path / "success.toml", "sil takes its [nmpc] and [estimator] tables, not [success]"),
     ):
         argv = ["sil", "--scenario", "random", "--settings", str(settings), "--json", str(tmp_path / "s.json")]
         assert main(argv) == EXIT_BAD_INPUT
@@ -82,3 +84,25 @@ def test_the_real_time_iteration_setting_goes_into_the_package_and_nowhere_by_de
         manifest = json.loads((out / "manifest.json").read_text())
         options = {"warm_iterations": 1, "whole_steps_only": True}
         assert manifest["settings"]["nmpc"]["solver_options"] == (options if defined else {})
+
+
+def test_sil_takes_the_settings_files_estimator_for_both_runs(tmp_path, monkeypatch):
+    """``sil --settings`` with an [estimator] table (benchmarks/settings/hitch_sensor.toml): both runs filter the
+    readings with it (the scenario's estimator replaced), and the NMPC stays the scenario's where the file has no
+    [nmpc] table."""
+    from pathlib import Path
+
+    import hitchpark.app.sil as sil_module
+
+    seen = {}
+
+    def fake_run_sil(scenario, nmpc=None, process=None):
+        seen.update(scenario=scenario, nmpc=nmpc)
+        raise SystemExit(0)
+
+    monkeypatch.setattr(sil_module, "run_sil", fake_run_sil)
+    settings = Path(__file__).parents[2] / "benchmarks" / "settings" / "hitch_sensor.toml"
+    with pytest.raises(SystemExit):
+        main(["sil", "--scenario", "curb_parallel", "--settings", str(settings), "--json", str(tmp_path / "s.json")])
+    assert seen["scenario"].settings.estimator.hitch_noise_std_deg == 0.5
+    assert seen["nmpc"] is None

@@ -321,7 +321,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=Path,
         metavar="FILE.toml",
         help="maneuver settings whose [nmpc] table (kind full) both controllers run, as export takes it (default: the "
-        "scenario's when of kind full, else the defaults)",
+        "scenario's when of kind full, else the defaults), and whose [estimator] table filters the readings of both "
+        "runs; other tables are refused (they are the scenario's)",
     )
     _add_plant_option(p, "(default: the scenario's [plant])")
     p.add_argument("--json", required=True, metavar="FILE", help="where to write the report")

@@ -59,8 +59,20 @@ def _cmd_sil(args: argparse.Namespace) -> int:
     nmpc = None
     if args.settings is not None:
         from ..app.sweep import load_settings
+        from ..checks import InputError
+        from ..io import read_toml
 
-        nmpc = load_settings(args.settings).nmpc
+        loaded = load_settings(args.settings)
+        tables = set(read_toml(args.settings, "settings"))
+        other = sorted(tables - {"nmpc", "estimator"})
+        if other:  # the other tables of a maneuver's settings are the scenario's in both runs: not silently dropped
+            raise InputError(
+                f"settings file {args.settings}: sil takes its [nmpc] and [estimator] tables, not [{other[0]}] "
+                "(put the others in the scenario file)"
+            )
+        nmpc = loaded.nmpc if "nmpc" in tables else None
+        if "estimator" in tables:
+            sc = replace(sc, settings=replace(sc.settings, estimator=loaded.estimator))
     report = run_sil(sc, nmpc=nmpc, process=args.process)
     data = report.to_dict()
     write_json(args.json, data)
